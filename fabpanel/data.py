@@ -1,0 +1,411 @@
+"""The dataclasses carried from stage to stage.
+
+Every length is in millimetres in the world frame of the design surface (after the input's unit
+conversion) unless a field says otherwise. Arrays are numpy arrays; shapes are given in the field
+documentation as ``(n, 3) float``. The dataclasses are frozen: stages return new objects and never
+mutate their input. ``to_dict()`` gives JSON-ready data (arrays summarised or listed) for the
+manifest.
+
+Flow::
+
+    Surface --panelize--> PanelLayout --develop--> DevelopedPanels --build--> Model
+    Model --cut--> FlatParts --nest--> Nests
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from .errors import Issue
+
+PartKind = Literal["sheet-top", "sheet-bottom", "rib", "stiffener"]
+PanelClass = Literal["planar", "single-curved", "conical", "not-developable"]
+
+
+def _round(values: Any, digits: int = 4) -> Any:
+    return np.round(np.asarray(values, dtype=float), digits).tolist()
+
+
+# --------------------------------------------------------------------------------------------
+# Surface
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Surface:
+    """The design surface as read, in millimetres.
+
+    vertices : (n, 3) float
+        mesh vertices, mm (a tessellation for B-rep input).
+    faces : (m, 3) int
+        triangles, oriented consistently where the input allows; normals point to the outer side.
+    boundary_loops : tuple of (k,) int
+        vertex indices of each closed boundary loop (first vertex not repeated). The loop with the
+        largest projected area is ``boundary_loops[0]``, the outer boundary; the rest are openings.
+    source : Path
+        the file read.
+    format : str
+        ``"obj"``, ``"stl"``, ``"ply"``, ``"off"``, ``"glb"``, ``"step"``, ``"iges"``, ``"brep"``.
+    units : str
+        the unit the input was declared in (``"m"``, ``"mm"``); coordinates here are mm anyway.
+    brep : bytes or None
+        for B-rep input, the exact surface as OCCT BREP text (a face or shell, mm); kept for exact
+        closeness queries and for grids in the face's own parameters.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    boundary_loops: tuple[np.ndarray, ...]
+    source: Path
+    format: str
+    units: str
+    brep: bytes | None = None
+
+    @property
+    def area(self) -> float:
+        """Surface area, mm2."""
+        tri = self.vertices[self.faces]
+        return float(0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
+                                          axis=1).sum())
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """(2, 3) float: min and max corner, mm."""
+        return np.array([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+
+    @property
+    def openings(self) -> int:
+        return max(len(self.boundary_loops) - 1, 0)
+
+    def to_dict(self) -> dict:
+        return {"source": str(self.source), "format": self.format, "units": self.units,
+                "vertices": len(self.vertices), "faces": len(self.faces),
+                "bounds_mm": _round(self.bounds, 3), "area_m2": round(self.area / 1e6, 6),
+                "boundary_loops": len(self.boundary_loops), "openings": self.openings,
+                "exact_brep": self.brep is not None}
+
+
+# --------------------------------------------------------------------------------------------
+# Panel layout
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PanelLayout:
+    """A quad panel layout on the design surface.
+
+    vertices : (n, 3) float
+        panel corner points, mm, on the design surface.
+    quads : (m, 4) int
+        corner indices per panel, counter-clockwise seen from the outer side (so the normal from
+        the right-hand rule points outwards). Side ``s`` of a panel runs from corner ``s`` to
+        corner ``s + 1``.
+    panel_ids : tuple of str
+        ``"P001"``... in panel order.
+    method : str
+        how the layout was made (``"grid"``...).
+    metrics : dict
+        measured quality (edge lengths, angles...), JSON-ready.
+    parameters : (m, 4, 2) float or None
+        for layouts made in a surface parameter domain, each corner's (u, v); lets the next stage
+        sample panels exactly on a B-rep surface.
+    """
+
+    vertices: np.ndarray
+    quads: np.ndarray
+    panel_ids: tuple[str, ...]
+    method: str
+    metrics: dict = field(default_factory=dict)
+    parameters: np.ndarray | None = None
+    issues: tuple[Issue, ...] = ()
+
+    @property
+    def edges(self) -> np.ndarray:
+        """(e, 2) int: unique undirected panel edges, sorted vertex pairs."""
+        sides = np.stack([self.quads, np.roll(self.quads, -1, axis=1)], axis=2).reshape(-1, 2)
+        return np.unique(np.sort(sides, axis=1), axis=0)
+
+    @property
+    def side_neighbours(self) -> np.ndarray:
+        """(m, 4) int: the panel across each side, -1 on the boundary."""
+        m = len(self.quads)
+        sides = np.stack([self.quads, np.roll(self.quads, -1, axis=1)], axis=2).reshape(-1, 2)
+        key = np.sort(sides, axis=1)
+        _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+        inverse = inverse.ravel()
+        order = np.argsort(inverse, kind="stable")
+        neighbours = np.full(4 * m, -1, dtype=int)
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        shared = counts == 2
+        first, second = order[starts[shared]], order[starts[shared] + 1]
+        neighbours[first] = second // 4
+        neighbours[second] = first // 4
+        return neighbours.reshape(m, 4)
+
+    def to_dict(self) -> dict:
+        neighbours = self.side_neighbours
+        return {
+            "method": self.method,
+            "panels": [
+                {"id": pid, "corners_mm": _round(self.vertices[quad], 3),
+                 "neighbours": [self.panel_ids[n] if n >= 0 else None for n in neighbours[i]]}
+                for i, (pid, quad) in enumerate(zip(self.panel_ids, self.quads))
+            ],
+            "metrics": self.metrics,
+        }
+
+
+# --------------------------------------------------------------------------------------------
+# Developed panels
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class DevelopedPanels:
+    """Each panel's final (developable) surface as a k x k sample grid.
+
+    Grid convention for panel ``p`` with corners ``c0..c3`` of ``PanelLayout.quads[p]``:
+    ``samples[p, i, j]`` with ``i`` running from side 3 to side 1 and ``j`` from side 0 to side 2,
+    so ``samples[p, 0, 0] = c0``, ``samples[p, -1, 0] = c1``, ``samples[p, -1, -1] = c2``,
+    ``samples[p, 0, -1] = c3``. Side 0 is ``samples[p, :, 0]``, side 1 ``samples[p, -1, :]``,
+    side 2 ``samples[p, ::-1, -1]``, side 3 ``samples[p, 0, ::-1]``. Neighbouring panels hold
+    identical samples (and normals) along their shared side.
+
+    samples : (m, k, k, 3) float
+        points of the design face of the build-up (see ``[sandwich] design_face``), mm.
+    normals : (m, k, k, 3) float
+        unit normals at the samples, pointing to the outer side.
+    side_planes : (m, 4, 4) float
+        plane ``(nx, ny, nz, d)`` with ``n . x = d`` of each panel side's rib: it contains the
+        side's sample polyline and the normals along it (for a developable strip both hold exactly
+        where the side is a planar curve of curvature-line type).
+    classes : tuple of PanelClass
+        per panel.
+    bending_radius : (m,) float
+        smallest bending radius per panel, mm (``inf`` for planar panels).
+    metrics : dict
+        per panel and overall measures (unroll strain, deviation...), JSON-ready.
+    """
+
+    layout: PanelLayout
+    samples: np.ndarray
+    normals: np.ndarray
+    side_planes: np.ndarray
+    classes: tuple[PanelClass, ...]
+    bending_radius: np.ndarray
+    method: str
+    metrics: dict = field(default_factory=dict)
+    issues: tuple[Issue, ...] = ()
+
+    @property
+    def panel_ids(self) -> tuple[str, ...]:
+        return self.layout.panel_ids
+
+    def side_samples(self, panel: int, side: int) -> np.ndarray:
+        """(k, 3) float: samples along one side, from corner ``side`` to corner ``side + 1``."""
+        grid = self.samples[panel]
+        return [grid[:, 0], grid[-1, :], grid[::-1, -1], grid[0, ::-1]][side]
+
+    def to_dict(self) -> dict:
+        return {"method": self.method, "samples_per_side": int(self.samples.shape[1]),
+                "classes": dict(zip(self.panel_ids, self.classes)),
+                "metrics": self.metrics}
+
+
+# --------------------------------------------------------------------------------------------
+# Model (OCCT parts)
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Hole:
+    """A round hole in a part: centre in the part's flat frame (2D, mm) and diameter, mm."""
+
+    centre: tuple[float, float]
+    diameter: float
+    purpose: Literal["bolt", "access"] = "bolt"
+
+
+@dataclass(frozen=True)
+class Part:
+    """One steel part, as an exact solid and as what the cutting stage needs to lay it flat.
+
+    id : str
+        ``"P012-TOP"``, ``"P012-BOT"``, ``"P012-RIB-3"`` (side 3), ``"P012-STF-1"`` (corner 1).
+    kind : PartKind
+    panel_id : str
+    material : str
+    thickness : float
+        plate thickness, mm.
+    volume : float
+        solid volume, mm3 (from OCCT).
+    area : float
+        area of one face of the flat plate, mm2 (what is cut from stock).
+    mass : float
+        kg.
+    brep : bytes
+        the solid as OCCT BREP text, mm, world frame.
+    surface_grid : (a, b, 3) float or None
+        sheets only: the surface to unroll (the fibre set by ``[cutting] neutral_fibre``) sampled
+        densely, mm, world frame, with the same side convention as ``DevelopedPanels.samples``.
+    outline : (n, 2) float or None
+        ribs and stiffeners: the flat outline, counter-clockwise, mm, in the part's own plane.
+    frame : (4, 4) float or None
+        ribs and stiffeners: maps the plane's (x, y, 0) to world coordinates.
+    holes : tuple of Hole
+        in the flat frame (sheets: in the unrolled frame, placed by the cutting stage).
+    """
+
+    id: str
+    kind: PartKind
+    panel_id: str
+    material: str
+    thickness: float
+    volume: float
+    area: float
+    mass: float
+    brep: bytes = field(repr=False)
+    surface_grid: np.ndarray | None = field(default=None, repr=False)
+    outline: np.ndarray | None = field(default=None, repr=False)
+    frame: np.ndarray | None = field(default=None, repr=False)
+    holes: tuple[Hole, ...] = ()
+    files: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict:
+        return {"id": self.id, "kind": self.kind, "panel": self.panel_id,
+                "material": self.material, "thickness_mm": self.thickness,
+                "volume_mm3": round(self.volume, 1), "area_mm2": round(self.area, 1),
+                "mass_kg": round(self.mass, 4), "holes": len(self.holes),
+                "files": list(self.files)}
+
+
+@dataclass(frozen=True)
+class Model:
+    """All parts of all panels.
+
+    parts : tuple of Part
+        grouped by panel in panel order; within a panel: TOP, BOT, RIB-0..3, STF-0..3.
+    metrics : dict
+        checks (validity, rib planarity, clash, fit error) and totals, JSON-ready.
+    """
+
+    parts: tuple[Part, ...]
+    developed: DevelopedPanels
+    metrics: dict = field(default_factory=dict)
+    issues: tuple[Issue, ...] = ()
+
+    @property
+    def mass(self) -> float:
+        return float(sum(part.mass for part in self.parts))
+
+    def parts_of(self, panel_id: str) -> tuple[Part, ...]:
+        return tuple(part for part in self.parts if part.panel_id == panel_id)
+
+    def to_dict(self) -> dict:
+        return {"parts": [part.to_dict() for part in self.parts], "metrics": self.metrics}
+
+
+# --------------------------------------------------------------------------------------------
+# Flat parts and nests
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class FlatPart:
+    """A part laid flat for cutting, in its own 2D frame, mm.
+
+    outline : (n, 2) float
+        outer contour, counter-clockwise, not closed (first point not repeated).
+    holes : tuple of (k, 2) float
+        inner contours (clockwise), and round holes as ``Hole`` in ``round_holes``.
+    etch : tuple of (k, 2) float
+        polylines to etch (labels, bend lines), not cut.
+    bend_lines : (b, 2, 2) float
+        rulings along which the sheet is rolled, for sheets (empty otherwise).
+    labels : tuple of (text, x, y, height, angle_deg)
+        texts to etch; the DXF writer turns them into single-stroke geometry.
+    max_strain : float
+        largest relative edge-length change of the flattening (0 for planar parts).
+    edge_lengths_flat, edge_lengths_3d : (4,) float
+        sheets: length of each side in the flat outline and on the 3D surface, mm.
+    """
+
+    id: str
+    kind: PartKind
+    panel_id: str
+    material: str
+    thickness: float
+    outline: np.ndarray
+    holes: tuple[np.ndarray, ...] = ()
+    round_holes: tuple[Hole, ...] = ()
+    etch: tuple[np.ndarray, ...] = ()
+    bend_lines: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
+    labels: tuple[tuple[str, float, float, float, float], ...] = ()
+    max_strain: float = 0.0
+    edge_lengths_flat: np.ndarray | None = None
+    edge_lengths_3d: np.ndarray | None = None
+    files: tuple[str, ...] = ()
+
+    @property
+    def area(self) -> float:
+        """Net area (outline minus holes), mm2."""
+        from .geom.polygon import polygon_area
+
+        net = abs(polygon_area(self.outline)) - sum(abs(polygon_area(h)) for h in self.holes)
+        return float(net - sum(np.pi * h.diameter ** 2 / 4 for h in self.round_holes))
+
+    def to_dict(self) -> dict:
+        record = {"id": self.id, "kind": self.kind, "panel": self.panel_id,
+                  "thickness_mm": self.thickness, "area_mm2": round(self.area, 1),
+                  "max_strain": float(self.max_strain), "files": list(self.files)}
+        if self.edge_lengths_flat is not None:
+            record["edge_lengths_flat_mm"] = _round(self.edge_lengths_flat, 3)
+            record["edge_lengths_3d_mm"] = _round(self.edge_lengths_3d, 3)
+        return record
+
+
+@dataclass(frozen=True)
+class FlatParts:
+    parts: tuple[FlatPart, ...]
+    metrics: dict = field(default_factory=dict)
+    issues: tuple[Issue, ...] = ()
+
+    def to_dict(self) -> dict:
+        return {"parts": [p.to_dict() for p in self.parts], "metrics": self.metrics}
+
+
+@dataclass(frozen=True)
+class Placement:
+    """A part on a plate: ``transform`` (3, 3) maps the part's flat frame to the plate, mm."""
+
+    part_id: str
+    transform: np.ndarray
+
+    def to_dict(self) -> dict:
+        return {"part": self.part_id, "transform": _round(self.transform, 6)}
+
+
+@dataclass(frozen=True)
+class Plate:
+    """One stock plate with its parts. ``size`` is (length, width), mm."""
+
+    index: int
+    material: str
+    thickness: float
+    size: tuple[float, float]
+    placements: tuple[Placement, ...]
+    utilisation: float
+    files: tuple[str, ...] = ()
+
+    @property
+    def name(self) -> str:
+        return f"plate-{self.index:03d}"
+
+    def to_dict(self) -> dict:
+        return {"plate": self.name, "material": self.material, "thickness_mm": self.thickness,
+                "size_mm": list(self.size), "utilisation": round(self.utilisation, 4),
+                "placements": [p.to_dict() for p in self.placements], "files": list(self.files)}
+
+
+@dataclass(frozen=True)
+class Nests:
+    plates: tuple[Plate, ...]
+    metrics: dict = field(default_factory=dict)
+    issues: tuple[Issue, ...] = ()
+
+    def to_dict(self) -> dict:
+        return {"plates": [p.to_dict() for p in self.plates], "metrics": self.metrics}

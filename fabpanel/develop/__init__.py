@@ -1,0 +1,1 @@
+"""Develop: give every panel a developable surface (a k x k sample grid) and measure it."""

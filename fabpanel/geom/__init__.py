@@ -1,0 +1,1 @@
+"""Small pure numpy/scipy kernels shared by the stages."""

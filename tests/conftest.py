@@ -1,0 +1,57 @@
+"""Analytic fixtures: panels on cylinders whose true geometry is known in closed form."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fabpanel.data import DevelopedPanels, PanelLayout
+from fabpanel.develop.sides import side_planes
+
+
+def cylinder_developed(radius: float = 4000.0, length: float = 2400.0, n_arc: int = 2,
+                       n_len: int = 2, k: int = 9, arc: float = np.pi / 3,
+                       depth: float = 161.0) -> DevelopedPanels:
+    """Panels on a cylinder (axis along x, outer normals radial), exact samples and normals.
+
+    The vault spans angles ``pi/2 - arc/2 .. pi/2 + arc/2`` around the x axis (crown at +z),
+    ``n_len`` panels along x and ``n_arc`` around. Units mm.
+    """
+    xs = np.linspace(0.0, length, n_len + 1)
+    ts = np.linspace(np.pi / 2 - arc / 2, np.pi / 2 + arc / 2, n_arc + 1)
+
+    def point(x, t):
+        return np.stack([x, radius * np.cos(t), radius * np.sin(t)], axis=-1)
+
+    def normal(x, t):
+        return np.stack([np.zeros_like(t), np.cos(t), np.sin(t)], axis=-1)
+
+    # corners: index (ix, it) -> ix * (n_arc + 1) + it
+    X, T = np.meshgrid(xs, ts, indexing="ij")
+    vertices = point(X, T).reshape(-1, 3)
+    quads, samples, normals = [], [], []
+    s = np.linspace(0.0, 1.0, k)
+    for ix in range(n_len):
+        for it in range(n_arc):
+            c = lambda a, b: a * (n_arc + 1) + b  # noqa: E731
+            # counter-clockwise seen from outside (+radial): first along the angle, then along x
+            quads.append([c(ix, it), c(ix, it + 1), c(ix + 1, it + 1), c(ix + 1, it)])
+            gt = ts[it] + s[:, None] * (ts[it + 1] - ts[it]) + 0 * s[None, :]
+            gx = xs[ix] + s[None, :] * (xs[ix + 1] - xs[ix]) + 0 * s[:, None]
+            samples.append(point(gx, gt))
+            normals.append(normal(gx, gt))
+    quads = np.array(quads)
+    layout = PanelLayout(vertices=vertices, quads=quads,
+                         panel_ids=tuple(f"P{i + 1:03d}" for i in range(len(quads))),
+                         method="analytic-cylinder")
+    samples, normals = np.array(samples), np.array(normals)
+    planes, _ = side_planes(samples, normals, depth)
+    m = len(quads)
+    return DevelopedPanels(layout=layout, samples=samples, normals=normals, side_planes=planes,
+                           classes=("single-curved",) * m,
+                           bending_radius=np.full(m, radius), method="analytic")
+
+
+@pytest.fixture
+def cylinder_panels() -> DevelopedPanels:
+    return cylinder_developed()
