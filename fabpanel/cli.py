@@ -1,0 +1,230 @@
+"""Command line: ``fabpanel export | init | inspect | demo``.
+
+Exit codes: 0 success, 2 bad input or job (one line on stderr: what, where, how to fix),
+1 internal error. ``--debug`` shows tracebacks.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+import time
+from pathlib import Path
+
+import click
+
+from .errors import FabpanelError, InputError
+from .job import STAGES, Job
+
+TEMPLATE_DIR = Path(__file__).resolve().parent.parent / "templates"
+EXAMPLE_DIR = Path(__file__).resolve().parent.parent / "examples"
+JOB_SUFFIXES = {".toml"}
+
+
+class _Reporter:
+    """Progress for the pipeline: a rich bar per stage on a terminal, plain lines otherwise."""
+
+    def __init__(self, quiet: bool):
+        self.quiet = quiet
+        self.interactive = sys.stderr.isatty() and not quiet
+        self._progress = None
+        self._task = None
+        if self.interactive:
+            from rich.console import Console
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+            self._progress = Progress(TextColumn("{task.description:<10}"), BarColumn(),
+                                      TextColumn("{task.completed}/{task.total}"),
+                                      TimeElapsedColumn(), console=Console(stderr=True),
+                                      transient=True)
+            self._progress.start()
+
+    def start(self, stage: str, total: int | None) -> None:
+        if self._progress is not None:
+            self._task = self._progress.add_task(stage, total=total)
+        self._started = time.perf_counter()
+
+    def advance(self, steps: int = 1) -> None:
+        if self._progress is not None and self._task is not None:
+            self._progress.advance(self._task, steps)
+
+    def finish(self, stage: str, seconds: float, note: str) -> None:
+        if self._progress is not None and self._task is not None:
+            self._progress.remove_task(self._task)
+            self._task = None
+        if not self.quiet:
+            click.echo(f"{stage:<10} {seconds:6.1f} s  {note}", err=True)
+
+    def close(self) -> None:
+        if self._progress is not None:
+            self._progress.stop()
+
+
+def _fail(err: BaseException, debug: bool) -> None:
+    if debug:
+        raise err
+    if isinstance(err, FabpanelError):
+        click.echo(f"error: {err}", err=True)
+        sys.exit(err.exit_code)
+    click.echo(f"internal error: {type(err).__name__}: {err} (run with --debug for the "
+               f"traceback and report it)", err=True)
+    sys.exit(1)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="fabpanel")
+def main() -> None:
+    """fabpanel: free-form steel shells to panels, STEP solids, DXF cutting files and nests."""
+
+
+def _job_for(source: Path, units: str | None, panel_size: str | None) -> Job:
+    if source.suffix.lower() in JOB_SUFFIXES:
+        job = Job.from_toml(source)
+        if units is not None:
+            job = job.replace(input={"units": units})
+    else:
+        if not source.exists():
+            raise InputError(f"input file {source} does not exist; check the path")
+        job = Job.for_input(source, units=units)
+    if panel_size is not None:
+        job = job.replace(panelize={"panel_size": panel_size})
+    return job
+
+
+def export_run(source: Path, out: Path | None, units: str | None, panel_size: str | None,
+               until: str, jobs: int | None, force: bool, quiet: bool):
+    from .pipeline import run
+
+    logging.basicConfig(level=logging.WARNING if quiet else logging.INFO,
+                        format="%(levelname)s %(name)s: %(message)s")
+    logging.getLogger().setLevel(logging.WARNING)
+    job = _job_for(source, units, panel_size)
+    reporter = _Reporter(quiet)
+    try:
+        result = run(job, out_dir=out, until=until, jobs=jobs, force=force, progress=reporter)
+    finally:
+        reporter.close()
+    if not quiet:
+        summary = result.summary
+        parts = summary.get("parts", {})
+        click.echo(f"wrote {result.out_dir}", err=True)
+        if parts:
+            click.echo(f"  {summary['panels']['count']} panels, {parts['count']} parts, "
+                       f"{parts['mass_kg']} kg", err=True)
+        if "nests" in summary:
+            click.echo(f"  {summary['nests']['plates']} plates", err=True)
+        errors = [i for i in result.issues if i.severity == "error"]
+        for issue in errors[:10]:
+            click.echo(f"  issue: {issue.message}", err=True)
+    return result
+
+
+_export_options = [
+    click.option("--out", "out", type=click.Path(path_type=Path), default=None,
+                 help="Output folder (default: from the job, or <input>-fabpanel)."),
+    click.option("--units", type=click.Choice(["m", "cm", "mm"]), default=None,
+                 help="Length unit of the input coordinates (meshes carry none)."),
+    click.option("--panel-size", default=None, metavar="LENGTH",
+                 help='Target panel size, with a unit: "1.2 m".'),
+    click.option("--until", type=click.Choice(STAGES), default="structure",
+                 help="Stop after this stage; its outputs and those before are written."),
+    click.option("--jobs", type=click.IntRange(min=1), default=None,
+                 help="Worker processes for per-panel work (default: all cores)."),
+    click.option("--force", is_flag=True, help="Replace an existing output folder."),
+    click.option("--quiet", is_flag=True, help="Print nothing but errors."),
+    click.option("--debug", is_flag=True, help="Show tracebacks."),
+]
+
+
+def _with_export_options(func):
+    for option in reversed(_export_options):
+        func = option(func)
+    return func
+
+
+@main.command()
+@click.argument("source", type=click.Path(path_type=Path))
+@_with_export_options
+def export(source, out, units, panel_size, until, jobs, force, quiet, debug):
+    """Run the pipeline on INPUT (a surface file) or JOB.toml and write the output folder."""
+    try:
+        export_run(source, out, units, panel_size, until, jobs, force, quiet)
+    except Exception as err:  # noqa: BLE001 - the CLI turns every error into an exit code
+        _fail(err, debug)
+
+
+@main.command()
+@click.argument("path", type=click.Path(path_type=Path), default=Path("fabpanel.toml"))
+@click.option("--template", default="sandwich-pavilion", show_default=True,
+              help="Template name: " + ", ".join(sorted(p.stem for p in
+                                                       TEMPLATE_DIR.glob("*.toml"))))
+@click.option("--force", is_flag=True, help="Overwrite an existing file.")
+@click.option("--debug", is_flag=True, help="Show tracebacks.")
+def init(path, template, force, debug):
+    """Write a commented job file from a template."""
+    try:
+        source = TEMPLATE_DIR / f"{template}.toml"
+        if not source.is_file():
+            names = ", ".join(sorted(p.stem for p in TEMPLATE_DIR.glob("*.toml")))
+            raise InputError(f"unknown template {template!r}; choose one of {names}")
+        if path.exists() and not force:
+            raise InputError(f"{path} exists; pass --force to overwrite it or choose another path")
+        text = source.read_text(encoding="utf-8")
+        Job.from_dict(__import__("tomllib").loads(text))      # templates must stay valid
+        path.write_text(text, encoding="utf-8")
+        click.echo(f"wrote {path} (template {template})", err=True)
+    except Exception as err:  # noqa: BLE001
+        _fail(err, debug)
+
+
+@main.command()
+@click.argument("source", type=click.Path(path_type=Path))
+@click.option("--units", type=click.Choice(["m", "cm", "mm"]), default=None,
+              help="Length unit of the input coordinates (meshes carry none).")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@click.option("--debug", is_flag=True, help="Show tracebacks.")
+def inspect(source, units, as_json, debug):
+    """Show what is read from INPUT: format, units, bounds, area, boundary loops, openings."""
+    try:
+        from .surface import describe_surface, load_surface
+
+        if source.suffix.lower() in JOB_SUFFIXES:
+            job = Job.from_toml(source)
+            source, units = job.input_path, units or job.input.units
+        surface = load_surface(source, units)
+        info = describe_surface(surface)
+        if as_json:
+            import json
+
+            click.echo(json.dumps(info, indent=1, default=str))
+        else:
+            for key, value in info.items():
+                click.echo(f"{key:>22}: {value}")
+    except Exception as err:  # noqa: BLE001
+        _fail(err, debug)
+
+
+@main.command()
+@click.argument("folder", type=click.Path(path_type=Path), default=Path("fabpanel-demo"))
+@click.option("--force", is_flag=True, help="Replace an existing output folder.")
+@click.option("--jobs", type=click.IntRange(min=1), default=None)
+@click.option("--quiet", is_flag=True)
+@click.option("--debug", is_flag=True)
+def demo(folder, force, jobs, quiet, debug):
+    """Run the barrel-vault example (examples/barrel-vault.toml) into FOLDER."""
+    try:
+        job_path = EXAMPLE_DIR / "barrel-vault.toml"
+        if not (EXAMPLE_DIR / "barrel-vault.step").is_file():
+            sys.path.insert(0, str(EXAMPLE_DIR))
+            from barrel_vault import write_barrel_vault
+
+            write_barrel_vault(EXAMPLE_DIR / "barrel-vault.step")
+        export_run(job_path, folder, None, None, "structure", jobs, force, quiet)
+        if not quiet:
+            click.echo(f"open {folder / 'report' / 'index.html'}", err=True)
+    except Exception as err:  # noqa: BLE001
+        _fail(err, debug)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,132 @@
+"""The ``project`` method: sample each panel on the design surface, then measure it.
+
+Panels laid out in a B-rep face's parameters are sampled in those parameters (exact points and
+normals). Other layouts are sampled bilinearly between the panel corners and projected onto the
+surface. Either way a sample on a shared side depends only on that side, so neighbouring panels
+hold identical side samples and normals.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from ..data import DevelopedPanels, PanelLayout, Surface
+from ..geom.quads import bilinear_grid, coons_patch, resample_polylines
+from ..job import Job
+from ..surface import SurfaceQuery
+from .measure import classify_and_measure
+from .sides import side_planes
+
+log = logging.getLogger(__name__)
+
+
+def develop(layout: PanelLayout, surface: Surface, job: Job,
+            query: SurfaceQuery | None = None) -> DevelopedPanels:
+    """Give every panel of ``layout`` its sample grid, normals, rib planes and class."""
+    query = query or SurfaceQuery(surface)
+    k = job.develop.samples
+    m = len(layout.quads)
+    if layout.parameters is not None:
+        uv = bilinear_grid(layout.parameters, k).reshape(-1, 2)
+        points, normals = query.evaluate_uv(uv[:, 0], uv[:, 1])
+        samples, normals = points.reshape(m, k, k, 3), normals.reshape(m, k, k, 3)
+    else:
+        samples, normals = _surface_patches(layout, query, k)
+    samples, normals = _pin_corners(layout, samples, normals)
+    samples, normals = _share_sides(layout, samples, normals)
+    planes, plane_residuals = side_planes(samples, normals, job.sandwich.total_depth)
+    classes, radius, metrics, issues = classify_and_measure(
+        layout.panel_ids, samples, normals, plane_residuals, query, job)
+    log.info("develop (project): %s", {c: classes.count(c) for c in set(classes)})
+    return DevelopedPanels(layout=layout, samples=samples, normals=normals, side_planes=planes,
+                           classes=classes, bending_radius=radius, method="project",
+                           metrics=metrics, issues=issues)
+
+
+def surface_sides(starts: np.ndarray, ends: np.ndarray, query: SurfaceQuery, count: int,
+                  levels: int = 6) -> np.ndarray:
+    """Polylines on the surface between point pairs, evenly spaced by arc length.
+
+    Repeated midpoint subdivision with projection onto the surface (``levels`` times, so
+    2**levels segments), then resampling to ``count`` points. The result depends only on the two
+    end points, so two panels sharing a side get the same curve.
+    starts, ends : (e, 3). Returns (e, count, 3).
+    """
+    lines = np.stack([starts, ends], axis=1)
+    for _ in range(levels):
+        mids = 0.5 * (lines[:, :-1] + lines[:, 1:])
+        projected, _, _ = query.closest(mids.reshape(-1, 3))
+        refined = np.empty((len(lines), 2 * lines.shape[1] - 1, 3))
+        refined[:, 0::2], refined[:, 1::2] = lines, projected.reshape(mids.shape)
+        lines = refined
+    return resample_polylines(lines, count)
+
+
+def _surface_patches(layout: PanelLayout, query: SurfaceQuery,
+                     k: int) -> tuple[np.ndarray, np.ndarray]:
+    """k x k samples per panel: sides traced on the surface, interiors by Coons, projected."""
+    m = len(layout.quads)
+    edges = layout.edges                                      # (e, 2) sorted vertex pairs
+    curves = surface_sides(layout.vertices[edges[:, 0]], layout.vertices[edges[:, 1]], query, k)
+    lookup = {(int(a), int(b)): i for i, (a, b) in enumerate(edges)}
+    starts, ends = layout.quads, np.roll(layout.quads, -1, axis=1)
+    sides = np.empty((m, 4, k, 3))
+    for panel in range(m):
+        for side in range(4):
+            a, b = int(starts[panel, side]), int(ends[panel, side])
+            curve = curves[lookup[(min(a, b), max(a, b))]]
+            sides[panel, side] = curve if a < b else curve[::-1]
+    patches = coons_patch(sides[:, 0], sides[:, 1], sides[:, 2], sides[:, 3])
+    points, normals, _ = query.closest(patches.reshape(-1, 3))
+    points = points.reshape(m, k, k, 3)
+    # boundary samples stay exactly on the traced sides (projection could move them by rounding)
+    grid = patches
+    points[:, :, 0], points[:, :, -1] = grid[:, :, 0], grid[:, :, -1]
+    points[:, 0, :], points[:, -1, :] = grid[:, 0, :], grid[:, -1, :]
+    return points, normals.reshape(m, k, k, 3)
+
+
+def _pin_corners(layout: PanelLayout, samples: np.ndarray,
+                 normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Make the grid corners the layout's corner points exactly (no copy drift at shared corners)."""
+    samples = samples.copy()
+    corners = layout.vertices[layout.quads]
+    samples[:, 0, 0], samples[:, -1, 0] = corners[:, 0], corners[:, 1]
+    samples[:, -1, -1], samples[:, 0, -1] = corners[:, 2], corners[:, 3]
+    return samples, normals
+
+
+def _side_index(k: int, side: int) -> tuple[np.ndarray, np.ndarray]:
+    """Grid indices (i, j) of one side, from corner ``side`` to corner ``side + 1``."""
+    r, last = np.arange(k), np.full(k, k - 1)
+    first = np.zeros(k, dtype=int)
+    return [(r, first), (last, r), (r[::-1], last), (first, r[::-1])][side]
+
+
+def _share_sides(layout: PanelLayout, samples: np.ndarray,
+                 normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Copy each shared side's samples from the lower-numbered panel to the other one.
+
+    Both panels computed the side from the same two corners, so the copy changes nothing but
+    rounding; it makes "identical side samples" exact, which the B-spline sheets rely on.
+    """
+    samples, normals = samples.copy(), normals.copy()
+    k = samples.shape[1]
+    neighbours = layout.side_neighbours
+    for panel, side in zip(*np.nonzero(neighbours > panel_index(neighbours))):
+        other = neighbours[panel, side]
+        a, b = layout.quads[panel, side], layout.quads[panel, (side + 1) % 4]
+        other_side = int(np.flatnonzero((layout.quads[other] == b)
+                                        & (np.roll(layout.quads[other], -1) == a))[0])
+        src, dst = _side_index(k, side), _side_index(k, other_side)
+        # the neighbour runs the shared side the other way round
+        samples[other][dst[0], dst[1]] = samples[panel][src[0], src[1]][::-1]
+        normals[other][dst[0], dst[1]] = normals[panel][src[0], src[1]][::-1]
+    return samples, normals
+
+
+def panel_index(neighbours: np.ndarray) -> np.ndarray:
+    """(m, 4) int: each row's own panel index, to compare with ``side_neighbours``."""
+    return np.repeat(np.arange(len(neighbours))[:, None], neighbours.shape[1], axis=1)

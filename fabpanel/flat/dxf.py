@@ -1,0 +1,139 @@
+"""The one ezdxf adapter: flat parts and plates as plasma-ready DXF.
+
+Conventions (what SheetCam, ProNest and similar CAM programs expect): DXF R2010, millimetres
+(``$INSUNITS = 4``, ``$MEASUREMENT = 1``), closed LWPOLYLINE contours, CIRCLE for round holes,
+no SPLINE/ELLIPSE/TEXT. Layers by operation:
+
+``CUT-OUTER``  outer contours (cut last)
+``CUT-INNER``  holes (cut first)
+``ETCH``       labels as single-stroke polylines and bend lines (marked, not cut)
+``PLATE``      the stock plate outline (nests only)
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Iterable
+
+import ezdxf
+import numpy as np
+
+from ..data import FlatPart, FlatParts
+from ..geom.polygon import polygon_area
+from .strokefont import text_strokes
+
+log = logging.getLogger(__name__)
+
+DXF_VERSION = "R2010"
+#: layer name -> ACI colour
+LAYERS = {"CUT-OUTER": 7, "CUT-INNER": 1, "ETCH": 3, "PLATE": 8}
+#: entity types a plasma DXF must not contain
+FORBIDDEN = ("SPLINE", "ELLIPSE", "TEXT", "MTEXT")
+
+
+def new_document() -> ezdxf.document.Drawing:
+    """An empty R2010 drawing in millimetres with the cutting layers."""
+    doc = ezdxf.new(DXF_VERSION, setup=False)
+    doc.header["$INSUNITS"] = 4
+    doc.header["$MEASUREMENT"] = 1
+    doc.units = 4
+    for name, colour in LAYERS.items():
+        doc.layers.add(name, color=colour)
+    return doc
+
+
+def _apply(transform: np.ndarray | None, points: np.ndarray) -> np.ndarray:
+    points = np.asarray(points, dtype=float)
+    if transform is None:
+        return points
+    return points @ transform[:2, :2].T + transform[:2, 2]
+
+
+def etch_polylines(part: FlatPart) -> list[np.ndarray]:
+    """(k, 2) polylines to etch for a part in its flat frame: etch, bend lines, label strokes."""
+    lines = [np.asarray(p, dtype=float) for p in part.etch]
+    lines += [np.asarray(b, dtype=float) for b in part.bend_lines]
+    for text, x, y, height, angle in part.labels:
+        lines += text_strokes(text, x, y, height, angle)
+    return lines
+
+
+def add_part(msp, part: FlatPart, transform: np.ndarray | None = None,
+             etch: bool = True) -> None:
+    """Add one part's entities to a modelspace in cut order: etch, holes, outer contour.
+
+    transform : (3, 3) float or None, flat frame -> drawing, mm (a rigid motion).
+    """
+    if etch:
+        for line in etch_polylines(part):
+            msp.add_lwpolyline(_apply(transform, line).tolist(), dxfattribs={"layer": "ETCH"})
+    for hole in part.holes:
+        msp.add_lwpolyline(_apply(transform, hole).tolist(), close=True,
+                           dxfattribs={"layer": "CUT-INNER"})
+    for hole in part.round_holes:
+        centre = _apply(transform, np.array([hole.centre]))[0]
+        msp.add_circle(centre.tolist(), hole.diameter / 2, dxfattribs={"layer": "CUT-INNER"})
+    msp.add_lwpolyline(_apply(transform, part.outline).tolist(), close=True,
+                       dxfattribs={"layer": "CUT-OUTER"})
+
+
+def save(doc, path: str | Path) -> Path:
+    """Audit and save a drawing; raise if the auditor finds errors it could not fix."""
+    auditor = doc.audit()
+    if auditor.has_errors:
+        messages = "; ".join(str(e.message) for e in auditor.errors[:5])
+        raise RuntimeError(f"DXF audit of {path} failed: {messages}")
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    doc.saveas(path)
+    return path
+
+
+def write_part_dxf(part: FlatPart, path: str | Path) -> Path:
+    """One part as a plasma DXF (flat frame, mm)."""
+    doc = new_document()
+    add_part(doc.modelspace(), part)
+    return save(doc, path)
+
+
+def write_parts(flat: FlatParts, folder: str | Path) -> dict[str, str]:
+    """Write ``<part id>.dxf`` per part into ``folder``; returns part id -> file name."""
+    folder = Path(folder)
+    files = {}
+    for part in flat.parts:
+        name = f"{part.id}.dxf"
+        write_part_dxf(part, folder / name)
+        files[part.id] = name
+    log.info("wrote %d part DXF files to %s", len(files), folder)
+    return files
+
+
+def audit_dxf(path: str | Path) -> list[str]:
+    """Problems of a written DXF: auditor errors, wrong units, forbidden entity types."""
+    try:
+        doc = ezdxf.readfile(str(path))
+    except (OSError, ezdxf.DXFStructureError) as err:
+        return [f"cannot read {path}: {err}"]
+    problems = [str(e.message) for e in doc.audit().errors]
+    if doc.header.get("$INSUNITS") != 4:
+        problems.append(f"$INSUNITS is {doc.header.get('$INSUNITS')}, not 4 (mm)")
+    kinds = {e.dxftype() for e in doc.modelspace()}
+    problems += [f"{kind} entity present" for kind in FORBIDDEN if kind in kinds]
+    problems += [f"open contour on {e.dxf.layer}" for e in doc.modelspace()
+                 if e.dxftype() == "LWPOLYLINE" and e.dxf.layer.startswith("CUT") and not e.closed]
+    return problems
+
+
+def _polyline_area(entities: Iterable) -> float:
+    return sum(abs(polygon_area(np.array([(x, y) for x, y, *_ in e.get_points()])))
+               for e in entities)
+
+
+def part_area_from_dxf(path: str | Path) -> float:
+    """Net part area, mm2: CUT-OUTER polylines minus CUT-INNER polylines and circles."""
+    msp = ezdxf.readfile(str(path)).modelspace()
+    outer = _polyline_area(msp.query('LWPOLYLINE[layer=="CUT-OUTER"]'))
+    inner = _polyline_area(msp.query('LWPOLYLINE[layer=="CUT-INNER"]'))
+    circles = sum(np.pi * c.dxf.radius ** 2 for c in msp.query('CIRCLE[layer=="CUT-INNER"]'))
+    return float(outer - inner - circles)

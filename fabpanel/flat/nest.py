@@ -1,0 +1,355 @@
+"""The one spyrrow adapter: nest flat parts on stock plates for the plasma table.
+
+spyrrow (sparrow: J. Gardeyn, T. Wauters, "An open-source heuristic for 2D irregular strip packing",
+2024) solves strip packing: a strip of fixed height, minimise its length. Plates are made from it:
+
+1. Parts are grouped by (material, thickness); each group is nested on its own plates.
+2. Each outline is validated, grown by half the part spacing plus a small safety gap (shapely
+   mitre buffer) and simplified (Douglas-Peucker, the grow covers the simplification tolerance) to
+   keep spyrrow fast. The cut outline stays the original.
+3. The grown shapes are packed into a strip as high as the usable plate width (plate width minus
+   the margin on both sides, plus the grow on both sides: a part may touch the usable area's edge
+   with its true outline). The strip is cut into slots one usable plate length long.
+4. Every slot except the last becomes a plate with the parts lying wholly inside it; parts that
+   cross a slot end and the parts of the last slot are repacked in a new strip (step 3) until the
+   rest fits one plate. When the first strip has no crossings all its slots are kept at once.
+
+A part whose grown shape fits no plate in any allowed rotation becomes a ``part-too-large`` issue.
+Time budget: ``[cutting] nest_time`` per group; spyrrow takes whole seconds, so the first pack gets
+about 70 % and each repack half of what is left (0 s means spyrrow's constructive solution only).
+Results are deterministic for a given seed on one machine (spyrrow's own seed is ``seed + round``).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections import Counter, defaultdict
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+import spyrrow
+from shapely.geometry import Polygon, box
+
+from ..data import FlatPart, FlatParts, Nests, Placement, Plate
+from ..errors import Issue, SolverError
+from ..geom.polygon import polygon_area, polyline_length
+from ..job import Job
+
+log = logging.getLogger(__name__)
+
+#: Douglas-Peucker tolerance for the packing shapes, mm (covered by growing them as much more)
+SIMPLIFY_TOLERANCE = 0.5
+#: extra gap on top of half the part spacing, absorbs spyrrow's single-precision geometry, mm
+SAFETY_GAP = 0.05
+#: geometric tolerance of the nest checks, mm
+CHECK_TOLERANCE = 0.01
+
+Progress = Callable[[float, str], None]
+
+
+@dataclass(frozen=True)
+class _Item:
+    """A part prepared for packing: grown shape (part frame), allowed rotations."""
+
+    part: FlatPart
+    shape: np.ndarray  # (k, 2) float, counter-clockwise, not closed
+    rotations: tuple[int, ...]
+
+
+def rotation_matrix(degrees: float) -> np.ndarray:
+    """(2, 2) float; exact for multiples of 90 degrees."""
+    quarter = degrees / 90.0
+    if abs(quarter - round(quarter)) < 1e-6:
+        c, s = [(1, 0), (0, 1), (-1, 0), (0, -1)][int(round(quarter)) % 4]
+    else:
+        c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+    return np.array([[c, -s], [s, c]], dtype=float)
+
+
+def transform_points(transform: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Apply a (3, 3) 2D transform to (n, 2) points."""
+    return np.asarray(points, dtype=float) @ transform[:2, :2].T + transform[:2, 2]
+
+
+def validate_outline(outline: np.ndarray, name: str) -> np.ndarray:
+    """(n, 2) float: a finite, simple, non-degenerate outline, counter-clockwise, not closed.
+
+    Raises ValueError naming the part when the outline cannot be nested.
+    """
+    points = np.asarray(outline, dtype=float)
+    if points.ndim != 2 or points.shape[1] != 2 or len(points) < 3:
+        raise ValueError(f"{name}: outline must be (n >= 3, 2), got {points.shape}")
+    if not np.all(np.isfinite(points)):
+        raise ValueError(f"{name}: outline has non-finite coordinates")
+    if np.allclose(points[0], points[-1]):
+        points = points[:-1]
+    area = polygon_area(points)
+    if abs(area) < 1e-6:
+        raise ValueError(f"{name}: outline has zero area")
+    if not shapely.is_valid(Polygon(points)):
+        raise ValueError(f"{name}: outline is not simple "
+                         f"({shapely.is_valid_reason(Polygon(points))})")
+    return points if area > 0 else points[::-1].copy()
+
+
+def packing_shape(outline: np.ndarray, grow: float) -> np.ndarray:
+    """(k, 2) float: the outline grown by ``grow`` mm (mitre joins) and simplified, CCW.
+
+    The result holds every point within ``grow - SIMPLIFY_TOLERANCE`` of the outline.
+    """
+    grown = Polygon(outline).buffer(grow + SIMPLIFY_TOLERANCE, join_style="mitre",
+                                    mitre_limit=4.0)
+    simple = grown.simplify(SIMPLIFY_TOLERANCE, preserve_topology=True)
+    simple = shapely.geometry.polygon.orient(Polygon(simple.exterior), 1.0)
+    return np.asarray(simple.exterior.coords)[:-1]
+
+
+def _fitting_rotations(shape: np.ndarray, rotations: list[int], length: float,
+                       height: float) -> tuple[int, ...]:
+    size = shape.max(axis=0) - shape.min(axis=0)
+    fits = []
+    for r in rotations:
+        w, h = size if r % 180 == 0 else size[::-1]
+        if w <= length + 1e-9 and h <= height + 1e-9:
+            fits.append(int(r))
+    return tuple(fits)
+
+
+def _pack_strip(items: list[_Item], height: float, seconds: int, seed: int
+                ) -> tuple[list[np.ndarray], float]:
+    """Pack items in a strip; returns one (3, 3) transform (part frame -> strip) per item."""
+    spy_items = [spyrrow.Item(str(i), [tuple(p) for p in item.shape.tolist()], demand=1,
+                              allowed_orientations=[float(r) for r in item.rotations])
+                 for i, item in enumerate(items)]
+    try:
+        instance = spyrrow.StripPackingInstance("fabpanel", float(height), spy_items)
+        config = spyrrow.StripPackingConfig(early_termination=True, num_workers=1,
+                                            total_computation_time=int(seconds), seed=int(seed))
+        solution = instance.solve(config)
+    except (ValueError, RuntimeError) as err:
+        raise SolverError(f"spyrrow failed to pack {len(items)} parts: {err}") from err
+    transforms: list[np.ndarray | None] = [None] * len(items)
+    for placed in solution.placed_items:
+        t = np.eye(3)
+        t[:2, :2] = rotation_matrix(placed.rotation)
+        t[:2, 2] = placed.translation
+        transforms[int(placed.id)] = t
+    if any(t is None for t in transforms):
+        raise SolverError("spyrrow left parts unplaced in an unbounded strip")
+    return transforms, float(solution.width)
+
+
+def _round_seconds(seconds: float) -> int:
+    return max(int(round(seconds)), 0)
+
+
+def _nest_group(items: list[_Item], job: Job, grow: float, deadline_s: float, seed: int,
+                on_round: Callable[[int], None]) -> list[list[tuple[_Item, np.ndarray]]]:
+    """Plates of one group: per plate a list of (item, transform part frame -> plate)."""
+    cutting = job.cutting
+    slot = cutting.plate_length - 2 * cutting.plate_margin + 2 * grow
+    height = cutting.plate_width - 2 * cutting.plate_margin + 2 * grow
+    offset = np.array([cutting.plate_margin - grow, cutting.plate_margin - grow])
+    start = time.perf_counter()
+    plates: list[list[tuple[_Item, np.ndarray]]] = []
+    remaining = sorted(items, key=lambda it: -abs(polygon_area(it.shape)))
+    rounds = 0
+    while remaining:
+        left = deadline_s - (time.perf_counter() - start)
+        seconds = _round_seconds(0.7 * left if rounds == 0 else 0.5 * left)
+        transforms, width = _pack_strip(remaining, height, seconds, seed + rounds)
+        rounds += 1
+        spans = np.array([[transform_points(t, it.shape)[:, 0].min(),
+                           transform_points(t, it.shape)[:, 0].max()]
+                          for it, t in zip(remaining, transforms)])
+        index = np.floor((spans[:, 0] + 1e-6) / slot).astype(int)
+        crossing = spans[:, 1] > (index + 1) * slot + 1e-6
+        last = int(index.max())
+        final = not crossing.any()
+        keep = ~crossing & ((index < last) | final)
+        if not keep.any():  # no progress: the largest part alone on a plate
+            keep[0] = True
+            transforms[0] = _alone(remaining[0])
+            index[0] = 0
+        for k in np.unique(index[keep]):
+            members = np.flatnonzero(keep & (index == k))
+            shift = np.eye(3)
+            shift[:2, 2] = offset - [k * slot, 0.0]
+            plates.append([(remaining[i], shift @ transforms[i]) for i in members])
+        remaining = [it for it, kept in zip(remaining, keep) if not kept]
+        log.debug("nest round %d: strip %.0f mm, %d plates so far, %d parts to repack",
+                  rounds, width, len(plates), len(remaining))
+        on_round(len(remaining))
+    return plates
+
+
+def _alone(item: _Item) -> np.ndarray:
+    """Transform putting an item's grown shape at the strip origin in its first rotation."""
+    t = np.eye(3)
+    t[:2, :2] = rotation_matrix(item.rotations[0])
+    t[:2, 2] = -(item.shape @ t[:2, :2].T).min(axis=0)
+    return t
+
+
+def cut_length(part: FlatPart) -> float:
+    """Total cut length of a part, mm: outline, polygon holes, round holes."""
+    return (polyline_length(part.outline, closed=True)
+            + sum(polyline_length(h, closed=True) for h in part.holes)
+            + sum(math.pi * h.diameter for h in part.round_holes))
+
+
+def pierces(part: FlatPart) -> int:
+    """Pierces of a part: one per closed contour."""
+    return 1 + len(part.holes) + len(part.round_holes)
+
+
+def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
+    """Nest all flat parts on stock plates.
+
+    Returns :class:`Nests`: plates numbered from 1 across all (material, thickness) groups, each
+    placement's transform (3, 3) maps the part's flat frame to plate coordinates (origin at the
+    plate corner, x along the plate length, mm). Issues: ``part-too-large`` (left out),
+    ``invalid-outline`` (left out).
+    """
+    cutting = job.cutting
+    grow = cutting.part_spacing / 2 + SAFETY_GAP
+    usable_length = cutting.plate_length - 2 * cutting.plate_margin + 2 * grow
+    usable_width = cutting.plate_width - 2 * cutting.plate_margin + 2 * grow
+    plate_area = cutting.plate_length * cutting.plate_width
+    started = time.perf_counter()
+    issues: list[Issue] = []
+    groups: dict[tuple[str, float], list[_Item]] = defaultdict(list)
+    for part in flat.parts:
+        try:
+            outline = validate_outline(part.outline, part.id)
+        except ValueError as err:
+            issues.append(Issue("invalid-outline", str(err), part.id, "error"))
+            continue
+        shape = packing_shape(outline, grow)
+        rotations = _fitting_rotations(shape, list(cutting.rotations), usable_length,
+                                       usable_width)
+        if not rotations:
+            size = outline.max(axis=0) - outline.min(axis=0)
+            issues.append(Issue(
+                "part-too-large",
+                f"{part.id} ({size[0]:.0f} x {size[1]:.0f} mm plus {cutting.part_spacing:g} mm "
+                f"spacing) fits no {cutting.plate_length:.0f} x {cutting.plate_width:.0f} mm "
+                f"plate with {cutting.plate_margin:g} mm margin in rotations "
+                f"{list(cutting.rotations)}; it is left out of the nests", part.id, "error"))
+            continue
+        groups[(part.material, float(part.thickness))].append(_Item(part, shape, rotations))
+
+    total = sum(len(g) for g in groups.values())
+    placed_parts = 0
+    plates: list[Plate] = []
+    lower_bound = 0
+    group_metrics = []
+    for (material, thickness), items in sorted(groups.items()):
+        group_start = time.perf_counter()
+
+        def on_round(left: int, n=len(items), done=placed_parts) -> None:
+            if progress is not None:
+                progress((done + n - left) / max(total, 1),
+                         f"nesting {material} {thickness:g} mm: {n - left}/{n} parts placed")
+
+        layout = _nest_group(items, job, grow, cutting.nest_time, cutting.seed, on_round)
+        placed_parts += len(items)
+        area = sum(it.part.area for it in items)
+        bound = math.ceil(area / plate_area - 1e-9)
+        lower_bound += bound
+        for members in layout:
+            used = sum(it.part.area for it, _ in members)
+            plates.append(Plate(index=len(plates) + 1, material=material, thickness=thickness,
+                                size=(cutting.plate_length, cutting.plate_width),
+                                placements=tuple(Placement(it.part.id, t) for it, t in members),
+                                utilisation=used / plate_area))
+        group_metrics.append({"material": material, "thickness_mm": thickness,
+                              "parts": len(items), "plates": len(layout),
+                              "plates_lower_bound": bound,
+                              "time_s": round(time.perf_counter() - group_start, 3)})
+        log.info("nested %d parts of %s %g mm on %d plates (lower bound %d)", len(items),
+                 material, thickness, len(layout), bound)
+
+    by_id = {p.id: p for p in flat.parts}
+    placed = [by_id[pl.part_id] for plate in plates for pl in plate.placements]
+    metrics = {
+        "plates": len(plates),
+        "plates_lower_bound": lower_bound,
+        "utilisation_by_plate": {p.name: round(p.utilisation, 4) for p in plates},
+        "utilisation": (sum(p.area for p in placed) / (plate_area * len(plates))
+                        if plates else 0.0),
+        "parts_placed": len(placed),
+        "parts_left_out": len(flat.parts) - len(placed),
+        "cut_length_mm": float(sum(cut_length(p) for p in placed)),
+        "pierces": int(sum(pierces(p) for p in placed)),
+        "time_s": round(time.perf_counter() - started, 3),
+        "groups": group_metrics,
+    }
+    return Nests(plates=tuple(plates), metrics=metrics, issues=tuple(issues))
+
+
+def placed_polygon(part: FlatPart, transform: np.ndarray) -> Polygon:
+    """The part's outline (with polygon holes) on the plate, as a shapely polygon."""
+    return Polygon(transform_points(transform, part.outline),
+                   [transform_points(transform, h) for h in part.holes])
+
+
+def validate_nests(nests: Nests, flat: FlatParts, job: Job,
+                   tolerance: float = CHECK_TOLERANCE) -> list[str]:
+    """Problems of a nest, as sentences (empty when it is sound).
+
+    Checks: every part placed exactly once (parts with a ``part-too-large`` or
+    ``invalid-outline`` issue: never); transforms are rigid motions without mirroring; every part
+    inside its plate's usable area (plate minus margin); parts on one plate at least the part
+    spacing apart; each plate holds only its material and thickness.
+    """
+    cutting = job.cutting
+    by_id = {p.id: p for p in flat.parts}
+    excluded = {i.item for i in nests.issues if i.code in ("part-too-large", "invalid-outline")}
+    errors: list[str] = []
+    counts = Counter(pl.part_id for plate in nests.plates for pl in plate.placements)
+    for part_id in by_id:
+        expected = 0 if part_id in excluded else 1
+        if counts[part_id] != expected:
+            errors.append(f"{part_id} is placed {counts[part_id]} times, expected {expected}")
+    errors += [f"{pid} is placed but is not a flat part" for pid in counts if pid not in by_id]
+    m = cutting.plate_margin
+    for plate in nests.plates:
+        length, width = plate.size
+        usable = box(m, m, length - m, width - m).buffer(tolerance, join_style="mitre")
+        polygons, names = [], []
+        for pl in plate.placements:
+            part = by_id.get(pl.part_id)
+            if part is None:
+                continue
+            t = np.asarray(pl.transform, dtype=float)
+            r = t[:2, :2]
+            if not (np.allclose(r.T @ r, np.eye(2), atol=1e-9) and np.linalg.det(r) > 0
+                    and np.allclose(t[2], [0, 0, 1])):
+                errors.append(f"{plate.name}: {part.id} transform is not a rigid motion")
+            if (part.material, float(part.thickness)) != (plate.material, float(plate.thickness)):
+                errors.append(f"{plate.name}: {part.id} is {part.material} {part.thickness:g} mm "
+                              f"on a {plate.material} {plate.thickness:g} mm plate")
+            polygon = placed_polygon(part, t)
+            if not usable.contains(polygon):
+                errors.append(f"{plate.name}: {part.id} leaves the usable area")
+            polygons.append(polygon)
+            names.append(part.id)
+        if len(polygons) < 2:
+            continue
+        tree = shapely.STRtree(polygons)
+        limit = max(cutting.part_spacing - tolerance, 0.0)
+        left, right = tree.query(polygons, predicate="dwithin", distance=limit) if limit > 0 \
+            else tree.query(polygons, predicate="intersects")
+        for i, j in zip(left, right):
+            if i >= j:
+                continue
+            gap = polygons[i].distance(polygons[j])
+            if polygons[i].intersection(polygons[j]).area > 0 or gap < limit:
+                errors.append(f"{plate.name}: {names[i]} and {names[j]} are {gap:.3f} mm apart "
+                              f"(spacing {cutting.part_spacing:g} mm)")
+    return errors

@@ -1,0 +1,195 @@
+"""Cut stage, first half: lay every part flat (unroll sheets, take rib outlines as they are).
+
+Sheets are unrolled with :func:`fabpanel.geom.flatten.flatten_grid`; the flat outline is the
+boundary of the flat grid in side order 0, 1, 2, 3 (counter-clockwise, seen from the outer side).
+Single-curved sheets get a few rulings as bend lines (the straight family of grid lines, where the
+other family is curved); every part gets its id, its panel id and, for sheets, an ``OUT`` marker as
+etched labels.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import Counter
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, Polygon
+from shapely.ops import polylabel
+
+from ..data import FlatPart, FlatParts, Model, Part
+from ..errors import GeometryError, Issue
+from ..geom.flatten import flatten_grid
+from ..geom.polygon import polygon_area
+from ..job import Job
+from .strokefont import text_width
+
+log = logging.getLogger(__name__)
+
+#: a grid line counts as straight (a ruling) when no sample is farther than this from its chord, mm
+STRAIGHT_TOLERANCE = 0.1
+#: number of rulings drawn as bend lines on a single-curved sheet
+BEND_LINES = 5
+#: label cap height limits, mm (15-30 mm reads well on a shop floor)
+LABEL_HEIGHT = (4.0, 30.0)
+
+
+def grid_sides(grid: np.ndarray) -> list[np.ndarray]:
+    """The four side polylines of an (a, b, d) grid, side ``s`` from corner ``s`` to ``s + 1``."""
+    return [grid[:, 0], grid[-1, :], grid[::-1, -1], grid[0, ::-1]]
+
+
+def polyline_lengths(polylines: list[np.ndarray]) -> np.ndarray:
+    """(p,) float: length of each polyline, mm."""
+    return np.array([np.linalg.norm(np.diff(p, axis=0), axis=1).sum() for p in polylines])
+
+
+def grid_outline(uv: np.ndarray) -> np.ndarray:
+    """(2 (a + b) - 4, 2) float: the flat grid's boundary, sides 0..3, corners not repeated."""
+    return np.concatenate([side[:-1] for side in grid_sides(uv)])
+
+
+def line_deviation(lines: np.ndarray) -> np.ndarray:
+    """(m,) float: largest distance of each polyline's points from the line through its ends, mm.
+
+    lines : (m, k, 3) float
+    """
+    start, end = lines[:, :1], lines[:, -1:]
+    axis = end - start
+    axis = axis / np.maximum(np.linalg.norm(axis, axis=2, keepdims=True), 1e-300)
+    rel = lines - start
+    along = np.einsum("mkd,mod->mk", rel, axis)
+    return np.linalg.norm(rel - along[..., None] * axis, axis=2).max(axis=1)
+
+
+def ruling_direction(grid: np.ndarray, tol: float = STRAIGHT_TOLERANCE) -> int | None:
+    """Which family of grid lines are rulings of a single-curved grid.
+
+    Returns 1 when the lines ``grid[i, :]`` (along j) are straight and the lines ``grid[:, j]``
+    are not, 0 for the opposite case, None when neither or both are straight (planar, doubly
+    curved or twisted sheets get no bend lines).
+    """
+    straight_j = line_deviation(grid).max() <= tol
+    straight_i = line_deviation(np.swapaxes(grid, 0, 1)).max() <= tol
+    if straight_j == straight_i:
+        return None
+    return 1 if straight_j else 0
+
+
+def bend_lines_of(uv: np.ndarray, direction: int | None, count: int = BEND_LINES) -> np.ndarray:
+    """(c, 2, 2) float: flat rulings at evenly spaced interior grid lines of one family."""
+    if direction is None:
+        return np.zeros((0, 2, 2))
+    lines = uv if direction == 1 else np.swapaxes(uv, 0, 1)
+    n = len(lines)
+    index = np.unique(np.round(np.linspace(0, n - 1, count + 2)[1:-1]).astype(int))
+    index = index[(index > 0) & (index < n - 1)]
+    return np.stack([lines[index, 0], lines[index, -1]], axis=1)
+
+
+def place_labels(outline: np.ndarray, lines: list[str], angle: float | None = None
+                 ) -> tuple[tuple[str, float, float, float, float], ...]:
+    """Stack text lines inside a polygon at its pole of inaccessibility.
+
+    outline : (n, 2) float, mm. ``angle`` (degrees) defaults to the outline's principal axis.
+    Returns ``(text, x, y, height, angle_deg)`` per line, centred, cap height in ``LABEL_HEIGHT``.
+    """
+    polygon = Polygon(outline).buffer(0)
+    if polygon.is_empty:
+        return ()
+    if polygon.geom_type == "MultiPolygon":
+        polygon = max(polygon.geoms, key=lambda g: g.area)
+    pole = polylabel(polygon, tolerance=1.0)
+    depth = max(polygon.exterior.distance(pole), 1e-6)
+    if angle is None:
+        centred = outline - outline.mean(axis=0)
+        _, _, vt = np.linalg.svd(centred, full_matrices=False)
+        angle = float(np.degrees(np.arctan2(vt[0, 1], vt[0, 0])))
+        angle = (angle + 90.0) % 180.0 - 90.0
+    direction = np.array([np.cos(np.radians(angle)), np.sin(np.radians(angle))])
+    span = 4.0 * np.sqrt(polygon.area) + 4 * depth
+    chord = LineString([np.array(pole.coords[0]) - span * direction,
+                        np.array(pole.coords[0]) + span * direction]).intersection(polygon)
+    pieces = getattr(chord, "geoms", [chord])
+    available = min((g.length for g in pieces if g.distance(pole) < 1e-6), default=2 * depth)
+    longest = max(len(t) for t in lines)
+    height = min(LABEL_HEIGHT[1], 1.4 * depth / (1.6 * len(lines)),
+                 0.8 * available / max(text_width("X" * longest, 1.0), 1e-9))
+    height = max(height, LABEL_HEIGHT[0])
+    normal = np.array([-direction[1], direction[0]])
+    offsets = (np.arange(len(lines))[::-1] - (len(lines) - 1) / 2) * 1.6 * height
+    centre = np.array(pole.coords[0])
+    return tuple((text, *(centre + off * normal).tolist(), float(height), float(angle))
+                 for text, off in zip(lines, offsets))
+
+
+def unroll_sheet(part: Part) -> FlatPart:
+    """Unroll one sheet's ``surface_grid`` into a :class:`FlatPart`."""
+    if part.surface_grid is None:
+        raise GeometryError(f"sheet {part.id} has no surface_grid to unroll")
+    grid = np.asarray(part.surface_grid, dtype=float)
+    uv, strain = flatten_grid(grid)
+    outline = grid_outline(uv)
+    lengths_flat = polyline_lengths(grid_sides(uv))
+    lengths_3d = polyline_lengths(grid_sides(grid))
+    bends = bend_lines_of(uv, ruling_direction(grid))
+    labels = place_labels(outline, [part.id, part.panel_id, "OUT"], angle=0.0)
+    return FlatPart(id=part.id, kind=part.kind, panel_id=part.panel_id, material=part.material,
+                    thickness=part.thickness, outline=outline, round_holes=tuple(part.holes),
+                    bend_lines=bends, labels=labels, max_strain=strain,
+                    edge_lengths_flat=lengths_flat, edge_lengths_3d=lengths_3d)
+
+
+def flat_plate(part: Part) -> FlatPart:
+    """A rib or stiffener: its outline as given (made counter-clockwise), no strain."""
+    if part.outline is None:
+        raise GeometryError(f"part {part.id} ({part.kind}) has no flat outline")
+    outline = np.asarray(part.outline, dtype=float)
+    if len(outline) > 1 and np.allclose(outline[0], outline[-1]):
+        outline = outline[:-1]
+    if polygon_area(outline) < 0:
+        outline = outline[::-1].copy()
+    labels = place_labels(outline, [part.id, part.panel_id])
+    return FlatPart(id=part.id, kind=part.kind, panel_id=part.panel_id, material=part.material,
+                    thickness=part.thickness, outline=outline, round_holes=tuple(part.holes),
+                    labels=labels, max_strain=0.0)
+
+
+def cut(model: Model, job: Job) -> FlatParts:
+    """Lay every part of the model flat.
+
+    Sheets (``sheet-top``/``sheet-bottom``) are unrolled from their ``surface_grid``; ribs and
+    stiffeners keep their outline. Issues: ``unroll-strain`` when a sheet's strain exceeds
+    ``[develop] strain_tolerance``, ``invalid-outline`` for self-intersecting outlines.
+    """
+    tolerance = job.develop.strain_tolerance
+    parts, issues = [], []
+    for part in model.parts:
+        flat = unroll_sheet(part) if part.kind.startswith("sheet") else flat_plate(part)
+        if flat.max_strain > tolerance:
+            issues.append(Issue("unroll-strain", f"{part.id} unrolls with strain "
+                                f"{flat.max_strain:.2e} > {tolerance:.1e}: the cut sheet will not "
+                                "fit the surface without stretching", part.id))
+        if not shapely.is_valid(Polygon(flat.outline)):
+            issues.append(Issue("invalid-outline", f"{part.id}: flat outline intersects itself",
+                                part.id, "error"))
+        parts.append(flat)
+    sheets = [p for p in parts if p.edge_lengths_flat is not None]
+    edge_error = max((float(np.abs(p.edge_lengths_flat - p.edge_lengths_3d).max())
+                      for p in sheets), default=0.0)
+    metrics = {
+        "parts": len(parts),
+        "count_by_kind": dict(Counter(p.kind for p in parts)),
+        "max_strain": max((p.max_strain for p in parts), default=0.0),
+        "strain_by_part": {p.id: float(p.max_strain) for p in sheets},
+        "max_edge_length_error_mm": edge_error,
+        "bend_lines": int(sum(len(p.bend_lines) for p in parts)),
+        "area_mm2": float(sum(p.area for p in parts)),
+    }
+    log.info("cut: %d flat parts, max strain %.2e, edge length error %.3f mm", len(parts),
+             metrics["max_strain"], edge_error)
+    return FlatParts(parts=tuple(parts), metrics=metrics, issues=tuple(issues))
+
+
+__all__ = ["cut", "unroll_sheet", "flat_plate", "place_labels", "ruling_direction",
+           "bend_lines_of", "grid_outline", "grid_sides"]

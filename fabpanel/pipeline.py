@@ -1,0 +1,334 @@
+"""run(job) -> Result: the stages in order, their outputs, metrics and the atomic output folder.
+
+Only this module sequences the stages. Outputs are written into a temporary folder next to the
+target and renamed into place only when the whole run succeeds, so a failed run leaves nothing
+half-written and an existing folder is never partly overwritten.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import logging
+import os
+import platform
+import shutil
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from . import __version__
+from .data import DevelopedPanels, FlatParts, Model, Nests, PanelLayout, Surface
+from .errors import InputError, Issue
+from .job import STAGES, Job, Stage
+
+log = logging.getLogger(__name__)
+
+
+class Progress(Protocol):
+    """What the pipeline tells its caller while it runs (the CLI draws bars from it)."""
+
+    def start(self, stage: str, total: int | None) -> None: ...
+
+    def advance(self, steps: int = 1) -> None: ...
+
+    def finish(self, stage: str, seconds: float, note: str) -> None: ...
+
+
+class _Silent:
+    def start(self, stage: str, total: int | None) -> None:
+        pass
+
+    def advance(self, steps: int = 1) -> None:
+        pass
+
+    def finish(self, stage: str, seconds: float, note: str) -> None:
+        log.info("%s done in %.1f s: %s", stage, seconds, note)
+
+
+@dataclass(frozen=True)
+class Result:
+    """Everything a run produced. Stages that did not run (``--until``) are ``None``."""
+
+    job: Job
+    out_dir: Path | None
+    surface: Surface
+    layout: PanelLayout | None = None
+    developed: DevelopedPanels | None = None
+    model: Model | None = None
+    flat: FlatParts | None = None
+    nests: Nests | None = None
+    summary: dict = field(default_factory=dict)
+    issues: tuple[Issue, ...] = ()
+    stages_run: tuple[Stage, ...] = ()
+
+
+def load(job: Job):
+    """Read the job's design surface (a stage of its own so bad input fails before any work)."""
+    from .surface import load_surface
+
+    if job.input_path is None:
+        raise InputError("the job names no input surface; set [input] path or pass INPUT")
+    return load_surface(job.input_path, job.input.units)
+
+
+def run(job: Job, out_dir: str | Path | None = None, until: Stage = "structure",
+        jobs: int | None = None, force: bool = False, progress: Progress | None = None,
+        write: bool = True) -> Result:
+    """Run the pipeline up to and including stage ``until``; write the outputs when ``write``.
+
+    out_dir : output folder (default: the job's ``[output] dir``). An existing folder is refused
+        unless ``force``; then it is replaced only once the new run has succeeded.
+    jobs : worker processes for per-panel work (default: all cores).
+    """
+    if until not in STAGES:
+        raise InputError(f"unknown stage {until!r}; use one of {', '.join(STAGES)}")
+    progress = progress or _Silent()
+    target = Path(out_dir).resolve() if out_dir else job.output_dir
+    if write and target.exists() and not force:
+        raise InputError(f"output folder {target} exists; pass --force to replace it or choose "
+                         f"another with --out")
+    surface = load(job)
+    if not write:
+        return _run_stages(job, surface, None, until, jobs, progress)
+    staging = target.parent / f".{target.name}.partial-{os.getpid()}"
+    if staging.exists():
+        shutil.rmtree(staging)
+    staging.mkdir(parents=True)
+    try:
+        result = _run_stages(job, surface, staging, until, jobs, progress)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    _move_into_place(staging, target)
+    return Result(**{**result.__dict__, "out_dir": target})
+
+
+def _move_into_place(staging: Path, target: Path) -> None:
+    old = None
+    if target.exists():
+        old = target.parent / f".{target.name}.old-{os.getpid()}"
+        target.rename(old)
+    staging.rename(target)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def _timed(progress: Progress, stage: str, total: int | None, work):
+    progress.start(stage, total)
+    started = time.perf_counter()
+    value = work()
+    return value, time.perf_counter() - started
+
+
+def _run_stages(job: Job, surface: Surface, folder: Path | None, until: Stage, jobs: int | None,
+                progress: Progress) -> Result:
+    from .develop import develop
+    from .panelize import panelize
+    from .surface import SurfaceQuery
+
+    stop = STAGES.index(until)
+    timings: dict[str, float] = {}
+    issues: list[Issue] = []
+    query = SurfaceQuery(surface)
+    state: dict = {"surface": surface}
+
+    layout, timings["panelize"] = _timed(progress, "panelize", None,
+                                         lambda: panelize(surface, job, query))
+    issues += layout.issues
+    progress.finish("panelize", timings["panelize"], f"{len(layout.quads)} panels")
+    state["layout"] = layout
+    ran: list[Stage] = ["panelize"]
+
+    if stop >= STAGES.index("develop"):
+        developed, timings["develop"] = _timed(progress, "develop", None,
+                                               lambda: develop(layout, surface, job, query))
+        issues += developed.issues
+        state["developed"] = developed
+        ran.append("develop")
+        progress.finish("develop", timings["develop"],
+                        ", ".join(f"{n} {c}" for c, n in developed.metrics["classes"].items()))
+
+    if stop >= STAGES.index("build"):
+        from .model import build
+
+        model, timings["build"] = _timed(
+            progress, "build", len(layout.quads),
+            lambda: build(state["developed"], job, jobs=jobs, progress=progress.advance))
+        issues += model.issues
+        state["model"] = model
+        ran.append("build")
+        progress.finish("build", timings["build"],
+                        f"{len(model.parts)} parts, {model.mass:.1f} kg")
+
+    if stop >= STAGES.index("cut"):
+        from .flat import cut
+        from .flat.nest import nest
+
+        def cut_and_nest():
+            flat = cut(state["model"], job)
+            return flat, nest(flat, job, progress=lambda fraction, message: None)
+
+        (flat, nests), timings["cut"] = _timed(progress, "cut", None, cut_and_nest)
+        issues += flat.issues + nests.issues
+        state["flat"], state["nests"] = flat, nests
+        ran.append("cut")
+        progress.finish("cut", timings["cut"], f"{len(flat.parts)} flat parts on "
+                        f"{len(nests.plates)} plates")
+
+    structure = {"analysed": False,
+                 "reason": "structural analysis with CalculiX is not part of this version yet",
+                 "ccx_found": shutil.which("ccx") is not None}
+    if stop >= STAGES.index("structure"):
+        ran.append("structure")
+        progress.finish("structure", 0.0, "not analysed (" + structure["reason"] + ")")
+
+    result = Result(job=job, out_dir=folder, issues=tuple(issues), stages_run=tuple(ran),
+                    **{k: v for k, v in state.items()})
+    from .report import summarise
+
+    summary = summarise(result, timings, structure)
+    result = Result(**{**result.__dict__, "summary": summary})
+    if folder is not None:
+        _write_outputs(result, folder, progress)
+    return result
+
+
+def _write_outputs(result: Result, folder: Path, progress: Progress) -> None:
+    job = result.job
+    started = time.perf_counter()
+    progress.start("write", None)
+    files: dict[str, list[str]] = {}
+
+    def note(mapping: dict, prefix: str) -> None:
+        for key, names in mapping.items():
+            names = [names] if isinstance(names, (str, Path)) else names
+            files.setdefault(key, []).extend(f"{prefix}/{Path(n).name}" for n in names)
+
+    if result.model is not None:
+        from .model import write_glb, write_panel_steps, write_step_assembly
+
+        (folder / "model" / "panels").mkdir(parents=True)
+        if job.output.step:
+            write_step_assembly(result.model, folder / "model" / "assembly.step")
+            note(write_panel_steps(result.model, folder / "model" / "panels"), "model/panels")
+        if job.output.glb:
+            write_glb(result.model, folder / "model" / "preview.glb")
+    if result.flat is not None and job.output.dxf:
+        from .flat.dxf import write_parts
+        from .flat.nest_output import write_nests
+
+        (folder / "cut" / "parts").mkdir(parents=True)
+        (folder / "cut" / "nests").mkdir(parents=True)
+        note(write_parts(result.flat, folder / "cut" / "parts"), "cut/parts")
+        note(write_nests(result.nests, result.flat, folder / "cut" / "nests"), "cut/nests")
+
+    manifest = build_manifest(result, files)
+    (folder / "manifest.json").write_text(json.dumps(manifest, indent=1, default=_json_default))
+    _write_bom(result, folder / "bom.csv", files)
+    if job.output.report:
+        from .report import write_report
+
+        (folder / "report").mkdir()
+        write_report(result, folder / "report")
+    progress.finish("write", time.perf_counter() - started, str(folder))
+
+
+def _json_default(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"cannot write {type(value).__name__} to JSON")
+
+
+def versions() -> dict:
+    from importlib.metadata import PackageNotFoundError, version
+
+    found = {"fabpanel": __version__, "python": platform.python_version()}
+    for name in ("build123d", "cadquery-ocp-novtk", "numpy", "scipy", "trimesh", "ezdxf",
+                 "spyrrow", "manifold3d"):
+        try:
+            found[name] = version(name)
+        except PackageNotFoundError:
+            found[name] = None
+    return found
+
+
+def build_manifest(result: Result, files: dict[str, list[str]]) -> dict:
+    """The manifest: job as run, versions, units, panels, parts, nests and stage metrics."""
+    panels = []
+    if result.layout is not None:
+        layout_record = result.layout.to_dict()
+        classes = dict(zip(result.developed.panel_ids, result.developed.classes)) \
+            if result.developed is not None else {}
+        for record in layout_record["panels"]:
+            record["class"] = classes.get(record["id"])
+            record["files"] = files.get(record["id"], [])
+            panels.append(record)
+    flat_by_id = {p.id: p for p in result.flat.parts} if result.flat is not None else {}
+    plate_of = {}
+    if result.nests is not None:
+        for plate in result.nests.plates:
+            for placement in plate.placements:
+                plate_of[placement.part_id] = plate.name
+    parts = []
+    if result.model is not None:
+        for part in result.model.parts:
+            record = part.to_dict()
+            record["files"] = files.get(part.id, [])
+            if part.id in flat_by_id:
+                record["flat"] = flat_by_id[part.id].to_dict()
+                record["plate"] = plate_of.get(part.id)
+            parts.append(record)
+    stages = {"surface": result.surface.to_dict()}
+    for name, value in (("panelize", result.layout), ("develop", result.developed),
+                        ("build", result.model), ("cut", result.flat), ("nest", result.nests)):
+        if value is not None:
+            stages[name] = value.metrics
+    return {
+        "fabpanel": __version__,
+        "versions": versions(),
+        "units": {"length": "mm", "mass": "kg", "area": "mm2", "volume": "mm3"},
+        "job": result.job.to_dict(),
+        "stages_run": list(result.stages_run),
+        "panels": panels,
+        "parts": parts,
+        "nests": ([{**p.to_dict(), "files": files.get(p.name, [])} for p in result.nests.plates]
+                  if result.nests is not None else []),
+        "metrics": stages,
+        "structure": result.summary.get("structure", {}),
+        "issues": [i.to_dict() for i in result.issues],
+    }
+
+
+def _write_bom(result: Result, path: Path, files: dict[str, list[str]]) -> None:
+    flat_by_id = {p.id: p for p in result.flat.parts} if result.flat is not None else {}
+    plate_of = {}
+    if result.nests is not None:
+        for plate in result.nests.plates:
+            for placement in plate.placements:
+                plate_of[placement.part_id] = plate.name
+    with path.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["part", "kind", "panel", "material", "thickness_mm", "flat_area_mm2",
+                         "volume_mm3", "mass_kg", "flat_length_mm", "flat_width_mm",
+                         "max_strain", "plate", "files"])
+        if result.model is None:
+            return
+        for part in result.model.parts:
+            flat = flat_by_id.get(part.id)
+            size = (np.ptp(flat.outline, axis=0) if flat is not None else (None, None))
+            writer.writerow([
+                part.id, part.kind, part.panel_id, part.material, f"{part.thickness:g}",
+                f"{flat.area:.1f}" if flat is not None else f"{part.area:.1f}",
+                f"{part.volume:.1f}", f"{part.mass:.4f}",
+                f"{size[0]:.1f}" if flat is not None else "",
+                f"{size[1]:.1f}" if flat is not None else "",
+                f"{flat.max_strain:.2e}" if flat is not None else "",
+                plate_of.get(part.id, ""), " ".join(files.get(part.id, []))])

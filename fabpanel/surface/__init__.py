@@ -1,0 +1,82 @@
+"""Read the design surface (meshes and B-reps), find its boundary loops, query it.
+
+``load_surface`` dispatches on the file extension to :mod:`.mesh` (OBJ, STL, PLY, OFF, GLB/GLTF,
+through trimesh) or :mod:`.brep` (STEP, IGES, BREP, through OCCT) and returns a
+:class:`~fabpanel.data.Surface` in millimetres with outward normals. ``SurfaceQuery`` answers
+closest-point and normal queries (exact on B-reps); ``describe_surface`` summarises a surface
+for ``fabpanel inspect``.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from ..data import Surface
+from ..errors import InputError
+from .boundary import boundary_loops, edge_use, loop_lengths
+from .brep import BREP_FORMATS, brep_to_shape, read_brep, shape_to_brep
+from .mesh import MESH_FORMATS, read_mesh
+from .query import SurfaceQuery
+
+log = logging.getLogger(__name__)
+
+__all__ = ["load_surface", "SurfaceQuery", "describe_surface", "boundary_loops",
+           "brep_to_shape", "shape_to_brep", "SUPPORTED_EXTENSIONS"]
+
+#: every file extension load_surface reads
+SUPPORTED_EXTENSIONS = tuple(MESH_FORMATS) + tuple(BREP_FORMATS)
+
+
+def load_surface(path: str | Path, units: str | None = None) -> Surface:
+    """Read the design surface from ``path``.
+
+    units : length unit of mesh coordinates (``"m"``, ``"mm"``, ``"cm"``); required for meshes,
+        ignored for STEP/IGES/BREP, which carry their units.
+    Returns a :class:`Surface` in millimetres. Raises :class:`InputError` with a one-line message
+    (what, which file, how to fix) for anything that cannot be read as a surface.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in SUPPORTED_EXTENSIONS:
+        raise InputError(f"{path.name}: unknown file type {suffix or '(no extension)'!r}; "
+                         f"supported: {', '.join(SUPPORTED_EXTENSIONS)}")
+    if not path.is_file():
+        raise InputError(f"{path.name}: file not found ({path}); check the path")
+    if path.stat().st_size == 0:
+        raise InputError(f"{path.name}: the file is empty (0 bytes); export the design surface "
+                         f"again")
+    if suffix in MESH_FORMATS:
+        return read_mesh(path, units)
+    return read_brep(path, units)
+
+
+def describe_surface(surface: Surface) -> dict:
+    """What ``fabpanel inspect`` prints about a surface (JSON-ready).
+
+    Keys: format, units (declared), vertices, faces, bounds_mm, size_mm, area_m2,
+    boundary_loops, openings, closed, manifold (every edge used by at most two triangles),
+    watertight (every edge used by exactly two), exact_brep, loop_lengths_mm (outer first).
+    """
+    _, counts, _ = edge_use(surface.faces)
+    bounds = surface.bounds
+    loops = surface.boundary_loops
+    return {
+        "source": str(surface.source),
+        "format": surface.format,
+        "units": surface.units,
+        "vertices": int(len(surface.vertices)),
+        "faces": int(len(surface.faces)),
+        "bounds_mm": np.round(bounds, 3).tolist(),
+        "size_mm": np.round(bounds[1] - bounds[0], 3).tolist(),
+        "area_m2": round(surface.area / 1e6, 6),
+        "boundary_loops": len(loops),
+        "openings": surface.openings,
+        "closed": len(loops) == 0,
+        "manifold": bool(np.all(counts <= 2)),
+        "watertight": bool(len(counts) > 0 and np.all(counts == 2)),
+        "exact_brep": surface.brep is not None,
+        "loop_lengths_mm": [round(x, 3) for x in loop_lengths(surface.vertices, loops)],
+    }

@@ -1,0 +1,37 @@
+"""Tolerances in one place, each with the reason for its default (mm unless stated).
+
+Tests switch on ``STRICT`` to run the expensive invariant checks inside the stages too.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    #: a panel whose samples lie this close to one plane is cut flat: 0.5 mm over a 1-2 m panel is
+    #: pulled out when the sheet is bolted to its ribs
+    planar_panel: float = 0.5
+    #: ribs and stiffeners are cut from flat plate; 0.05 mm is far below the plasma tolerance of
+    #: +-0.5 mm, so the kernel's own flatness (not the cut) limits the fit between parts
+    rib_planarity: float = 0.05
+    #: B-spline sheet surfaces through the sample grid; 0.05 mm keeps the fit invisible at the
+    #: plasma tolerance
+    sheet_fit: float = 0.05
+    #: unrolled edge length against the 3D edge length of a sheet: 0.1 mm, a fifth of the plasma
+    #: tolerance, so edges of neighbouring sheets meet after forming
+    unrolled_edge: float = 0.1
+    #: back-to-back ribs of neighbouring panels must touch to be bolted tight
+    rib_contact_gap: float = 0.1
+    #: re-imported STEP volumes against the built solids (relative)
+    step_volume: float = 1e-3
+    #: below this bending radius a sheet is press-formed instead of rolled (3-10 mm mild steel
+    #: on a plate roll with about 150 mm rolls)
+    press_forming_radius: float = 300.0
+
+
+TOLERANCES = Tolerances()
+
+#: run expensive invariant checks inside the stages (the test suite sets this)
+STRICT = False

@@ -1,0 +1,155 @@
+"""Unrolling sheets and writing part DXF files, checked against analytic truth."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fabpanel.data import Hole, Model, Part
+from fabpanel.flat import audit_dxf, cut, part_area_from_dxf, write_part_dxf, write_parts
+from fabpanel.flat.strokefont import CHARACTERS, text_strokes
+from fabpanel.geom.flatten import flatten_grid
+from fabpanel.geom.polygon import polygon_area
+from fabpanel.job import Job
+
+RADIUS, ARC, LENGTH = 4000.0, 0.3, 1200.0
+
+
+def cylinder_grid(a: int = 41, b: int = 25) -> np.ndarray:
+    """Vault patch (axis x, crown +z), i along the arc, j along x: outer normal d_i x d_j = +r."""
+    t = np.linspace(np.pi / 2 - ARC / 2, np.pi / 2 + ARC / 2, a)[:, None]
+    x = np.linspace(0.0, LENGTH, b)[None, :]
+    return np.stack(np.broadcast_arrays(x, RADIUS * np.cos(t), RADIUS * np.sin(t)), axis=-1)
+
+
+CONE_HALF_ANGLE, CONE_S, CONE_T = np.radians(30.0), (1500.0, 2600.0), (0.0, 0.6)
+
+
+def cone_grid(a: int = 41, b: int = 25) -> np.ndarray:
+    """Cone patch (apex at origin, axis +z): i along the angle, j along the rulings (distance s)."""
+    t = np.linspace(*CONE_T, a)[:, None, None]
+    s = np.linspace(*CONE_S, b)[None, :, None]
+    ruling = np.concatenate([np.sin(CONE_HALF_ANGLE) * np.cos(t), np.sin(CONE_HALF_ANGLE)
+                             * np.sin(t), np.full_like(t, np.cos(CONE_HALF_ANGLE))], axis=-1)
+    return s * ruling
+
+
+def sphere_grid(radius: float = 3000.0, k: int = 25) -> np.ndarray:
+    u = np.linspace(-0.2, 0.2, k)[:, None]
+    v = np.linspace(-0.2, 0.2, k)[None, :]
+    return radius * np.stack(np.broadcast_arrays(np.sin(u) * np.cos(v), np.sin(v) + 0 * u,
+                                                 np.cos(u) * np.cos(v)), axis=-1)
+
+
+def sides(grid):
+    return [grid[:, 0], grid[-1, :], grid[::-1, -1], grid[0, ::-1]]
+
+
+def lengths(polylines):
+    return np.array([np.linalg.norm(np.diff(p, axis=0), axis=1).sum() for p in polylines])
+
+
+def sheet(grid, pid="P001", kind="sheet-top", holes=()) -> Part:
+    return Part(id=f"{pid}-{'TOP' if kind == 'sheet-top' else 'BOT'}", kind=kind, panel_id=pid,
+                material="S235", thickness=3.0, volume=0.0, area=0.0, mass=0.0, brep=b"",
+                surface_grid=grid, holes=holes)
+
+
+def rib(pid="P001", side=0) -> Part:
+    outline = np.array([[0, 0], [900, 0], [900, 150], [600, 170], [0, 150]], dtype=float)
+    return Part(id=f"{pid}-RIB-{side}", kind="rib", panel_id=pid, material="S235",
+                thickness=8.0, volume=0.0, area=0.0, mass=0.0, brep=b"", outline=outline,
+                frame=np.eye(4), holes=(Hole((100.0, 75.0), 13.0), Hole((800.0, 75.0), 13.0)))
+
+
+def test_cylinder_unrolls_exactly():
+    uv, strain = flatten_grid(cylinder_grid())
+    assert strain < 1e-6
+    flat = lengths(sides(uv))
+    arc = RADIUS * ARC
+    # the 3D sides: polylines on the arc (chords) -> compare with R * theta within 0.1 mm
+    np.testing.assert_allclose(flat, [arc, LENGTH, arc, LENGTH], atol=0.1)
+    np.testing.assert_allclose(flat, lengths(sides(cylinder_grid())), atol=1e-6)
+    # pinned rigid motion: corner 0 at the origin, side 0 along +x, counter-clockwise
+    np.testing.assert_allclose(uv[0, 0], [0, 0], atol=1e-9)
+    assert abs(uv[-1, 0, 1]) < 1e-9 and uv[-1, 0, 0] > 0
+    outline = np.concatenate([s[:-1] for s in sides(uv)])
+    assert polygon_area(outline) > 0
+    np.testing.assert_allclose(polygon_area(outline), RADIUS * ARC * LENGTH, rtol=1e-4)
+
+
+def test_cone_unrolls_exactly():
+    uv, strain = flatten_grid(cone_grid())
+    assert strain < 1e-6
+    flat = lengths(sides(uv))
+    theta = CONE_T[1] - CONE_T[0]
+    rho = np.sin(CONE_HALF_ANGLE) * np.array(CONE_S)  # circle radii at the two ends
+    ruling = CONE_S[1] - CONE_S[0]
+    np.testing.assert_allclose(flat, [rho[0] * theta, ruling, rho[1] * theta, ruling], atol=0.1)
+    # the unrolled sector: rulings meet at the apex, at distance s from it; the sampled cone is a
+    # pyramid whose faces have apex angle 2 asin(sin(half angle) sin(dtheta / 2))
+    a = cone_grid().shape[0]
+    apex_angle = (a - 1) * 2 * np.arcsin(np.sin(CONE_HALF_ANGLE) * np.sin(theta / (a - 1) / 2))
+    chord = 2 * CONE_S[0] * np.sin(apex_angle / 2)
+    np.testing.assert_allclose(np.linalg.norm(uv[-1, 0] - uv[0, 0]), chord, rtol=1e-9)
+
+
+def test_sphere_reports_strain():
+    _, strain = flatten_grid(sphere_grid())
+    assert strain > 1e-3
+
+
+def test_cut_sheets_and_ribs(tmp_path):
+    model = Model(parts=(sheet(cylinder_grid(), holes=(Hole((600.0, 300.0), 40.0, "access"),)),
+                         sheet(cone_grid(), "P002"), rib()), developed=None)  # type: ignore[arg-type]
+    flat = cut(model, Job.from_dict({}))
+    top, cone, rib_part = flat.parts
+    assert top.max_strain < 1e-6 and cone.max_strain < 1e-6 and rib_part.max_strain == 0
+    assert polygon_area(top.outline) > 0 and polygon_area(rib_part.outline) > 0
+    np.testing.assert_allclose(top.edge_lengths_flat, top.edge_lengths_3d, atol=1e-6)
+    assert flat.metrics["max_edge_length_error_mm"] < 0.1
+    assert flat.metrics["count_by_kind"] == {"sheet-top": 2, "rib": 1}
+    # the vault's straight grid lines run along x (j): bend lines parallel to flat y
+    assert len(top.bend_lines) > 0
+    direction = top.bend_lines[:, 1] - top.bend_lines[:, 0]
+    np.testing.assert_allclose(np.abs(direction[:, 0]), 0, atol=1e-6)
+    assert len(cone.bend_lines) > 0
+    assert [label[0] for label in top.labels] == ["P001-TOP", "P001", "OUT"]
+    assert not flat.issues
+
+    files = write_parts(flat, tmp_path)
+    assert set(files) == {p.id for p in flat.parts}
+    for part in flat.parts:
+        path = tmp_path / files[part.id]
+        assert audit_dxf(path) == []
+        np.testing.assert_allclose(part_area_from_dxf(path), part.area, rtol=1e-4)
+
+
+def test_dxf_conventions(tmp_path):
+    import ezdxf
+
+    flat = cut(Model(parts=(rib(),), developed=None), Job.from_dict({}))  # type: ignore[arg-type]
+    path = write_part_dxf(flat.parts[0], tmp_path / "rib.dxf")
+    doc = ezdxf.readfile(path)
+    assert doc.header["$INSUNITS"] == 4 and doc.header["$MEASUREMENT"] == 1
+    assert not doc.audit().has_errors
+    kinds = {e.dxftype() for e in doc.modelspace()}
+    assert kinds <= {"LWPOLYLINE", "CIRCLE"}
+    layers = {e.dxf.layer for e in doc.modelspace()}
+    assert layers == {"CUT-OUTER", "CUT-INNER", "ETCH"}
+    outer = doc.modelspace().query('LWPOLYLINE[layer=="CUT-OUTER"]')
+    assert len(outer) == 1 and outer[0].closed
+
+
+def test_stroke_font_covers_label_characters():
+    assert set("ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_. ") <= CHARACTERS
+    strokes = text_strokes("P012-RIB-3", 0.0, 0.0, 20.0, 90.0)
+    points = np.concatenate(strokes)
+    # turned by 90 degrees about the centre: the line runs along y, 20 mm high along x
+    assert np.ptp(points[:, 1]) > np.ptp(points[:, 0])
+    np.testing.assert_allclose(np.ptp(points[:, 0]), 20.0, atol=1e-9)
+
+
+@pytest.mark.parametrize("grid", [cylinder_grid(9, 5), cone_grid(5, 9)])
+def test_coarse_grids_still_exact(grid):
+    assert flatten_grid(grid)[1] < 1e-6

@@ -1,0 +1,51 @@
+"""OCCT behaviour the model stage relies on; an upgrade that changes it must fail here loudly."""
+
+from __future__ import annotations
+
+import numpy as np
+from conftest import cylinder_developed
+
+from fabpanel.model import occ
+from fabpanel.model.build import side_curve
+
+
+def test_interpolation_boundary_depends_on_boundary_row_only():
+    """Two grids sharing a side (and with different interiors) give the same edge curve."""
+    d = cylinder_developed(n_arc=2, n_len=1)
+    a, b = d.samples[0], d.samples[1].copy()
+    # panel 0 side 1 (grid[-1, :]) is panel 1 side 3 reversed (grid[0, ::-1])
+    np.testing.assert_allclose(a[-1, :], b[0, :], atol=1e-9)
+    b[1:-1, 1:-1] += np.random.default_rng(0).normal(0.0, 20.0, b[1:-1, 1:-1].shape)
+    sa, _ = occ.bspline_surface(a)
+    sb, _ = occ.bspline_surface(b)
+    ca = side_curve(sa, 1, 101)
+    cb = side_curve(sb, 3, 101)[::-1]
+    np.testing.assert_allclose(ca, cb, atol=1e-9)
+
+
+def test_interpolation_parameters_are_uniform_on_unit_square():
+    grid = cylinder_developed(n_arc=1, n_len=1).samples[0]
+    surface, error = occ.bspline_surface(grid)
+    assert error < 1e-9
+    np.testing.assert_allclose(surface.Bounds(), (0.0, 1.0, 0.0, 1.0))
+    k = grid.shape[0]
+    np.testing.assert_allclose(occ.sample_surface(surface, k, k), grid, atol=1e-9)
+    assert surface.UDegree() == 3 and surface.VDegree() == 3
+
+
+def test_thicken_by_simple_offsets_along_face_normal():
+    """Negative thickness goes against dS/du x dS/dv (here: inward on the cylinder)."""
+    grid = cylinder_developed(n_arc=1, n_len=1, arc=np.pi / 6, length=1000.0).samples[0]
+    surface, _ = occ.bspline_surface(grid)
+    solid = occ.thicken(occ.face_from_surface(surface), -5.0)
+    radii = np.hypot(*occ.shape_points(solid)[:, 1:].T)
+    assert radii.max() < 4000.0 + 1e-3 and radii.min() > 4000.0 - 5.0 - 1e-3
+
+
+def test_brep_round_trip_keeps_volume():
+    grid = cylinder_developed(n_arc=1, n_len=1).samples[0]
+    surface, _ = occ.bspline_surface(grid)
+    solid = occ.thicken(occ.face_from_surface(surface), -3.0)
+    again = occ.from_brep(occ.to_brep(solid))
+    assert occ.is_valid(again)
+    np.testing.assert_allclose(occ.volume(again), occ.volume(solid), rtol=1e-12)

@@ -1,0 +1,126 @@
+"""Nesting flat parts on plates with spyrrow, checked with exact polygon tests."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fabpanel.data import FlatPart, FlatParts, Hole
+from fabpanel.flat import audit_dxf, nest, validate_nests, write_nests
+from fabpanel.job import Job
+
+JOB = Job.from_dict({"cutting": {"nest_time": "1 s", "plate_length": "2000 mm",
+                                 "plate_width": "1000 mm"}})
+
+
+def rectangle(w, h):
+    return np.array([[0, 0], [w, 0], [w, h], [0, h]], dtype=float)
+
+
+def l_shape(w, h, t):
+    return np.array([[0, 0], [w, 0], [w, t], [t, t], [t, h], [0, h]], dtype=float)
+
+
+def flat_part(pid, outline, thickness=3.0, holes=()):
+    return FlatPart(id=pid, kind="rib", panel_id=pid[:4], material="S235", thickness=thickness,
+                    outline=outline, round_holes=holes,
+                    labels=((pid, *outline.mean(axis=0).tolist(), 10.0, 0.0),))
+
+
+def mixed_parts() -> FlatParts:
+    rng = np.random.default_rng(7)
+    parts = []
+    for i in range(8):
+        w, h = rng.uniform(300, 700), rng.uniform(200, 500)
+        parts.append(flat_part(f"P{i:03d}-REC", rectangle(w, h),
+                               holes=(Hole((w / 2, h / 2), 40.0),)))
+    for i in range(6):
+        parts.append(flat_part(f"P{i:03d}-L", l_shape(rng.uniform(300, 600),
+                                                      rng.uniform(300, 600), 120.0)))
+    for i in range(6):
+        parts.append(flat_part(f"P{i:03d}-STR", rectangle(rng.uniform(900, 1600), 150.0)))
+    return FlatParts(parts=tuple(parts))
+
+
+@pytest.fixture(scope="module")
+def mixed():
+    flat = mixed_parts()
+    return flat, nest(flat, JOB)
+
+
+def test_nest_is_valid_over_several_plates(mixed):
+    flat, nests = mixed
+    assert validate_nests(nests, flat, JOB) == []
+    assert len(nests.plates) >= 2
+    placed = [pl.part_id for plate in nests.plates for pl in plate.placements]
+    assert sorted(placed) == sorted(p.id for p in flat.parts)
+    m = nests.metrics
+    assert m["plates"] >= m["plates_lower_bound"]
+    assert 0 < m["utilisation"] <= 1
+    assert m["pierces"] == 20 + 8
+    assert m["cut_length_mm"] > 0
+
+
+def test_validate_nests_catches_overlap(mixed):
+    flat, nests = mixed
+    plate = nests.plates[0]
+    moved = list(plate.placements)
+    moved[1] = type(moved[1])(moved[1].part_id, moved[0].transform)
+    broken = type(nests)(plates=(type(plate)(plate.index, plate.material, plate.thickness,
+                                             plate.size, tuple(moved), plate.utilisation),
+                                 *nests.plates[1:]))
+    assert any("apart" in e for e in validate_nests(broken, flat, JOB))
+
+
+def test_oversize_part_is_an_issue():
+    flat = FlatParts(parts=(flat_part("P900-BIG", rectangle(2500, 1200)),
+                            flat_part("P901-OK", rectangle(500, 400))))
+    nests = nest(flat, JOB)
+    assert [(i.code, i.item) for i in nests.issues] == [("part-too-large", "P900-BIG")]
+    assert "P900-BIG" in nests.issues[0].message
+    assert validate_nests(nests, flat, JOB) == []
+    assert [pl.part_id for plate in nests.plates for pl in plate.placements] == ["P901-OK"]
+
+
+def test_rotation_needed_to_fit():
+    job = JOB.replace(cutting={"rotations": [0]})
+    flat = FlatParts(parts=(flat_part("P902-TALL", rectangle(300, 1500)),))
+    assert [i.code for i in nest(flat, job).issues] == ["part-too-large"]
+    rotated = nest(flat, JOB)
+    assert not rotated.issues and validate_nests(rotated, flat, JOB) == []
+
+
+def test_groups_by_thickness():
+    flat = FlatParts(parts=(flat_part("P001-A", rectangle(400, 300), 3.0),
+                            flat_part("P001-B", rectangle(400, 300), 8.0)))
+    nests = nest(flat, JOB)
+    assert sorted(p.thickness for p in nests.plates) == [3.0, 8.0]
+    assert validate_nests(nests, flat, JOB) == []
+
+
+def test_same_seed_same_placements(mixed):
+    flat, first = mixed
+    second = nest(flat, JOB)
+    assert [[pl.part_id for pl in p.placements] for p in first.plates] == \
+        [[pl.part_id for pl in p.placements] for p in second.plates]
+    for a, b in zip(first.plates, second.plates):
+        for pa, pb in zip(a.placements, b.placements):
+            np.testing.assert_allclose(pa.transform, pb.transform, atol=1e-9)
+
+
+def test_write_nests(mixed, tmp_path):
+    flat, nests = mixed
+    files = write_nests(nests, flat, tmp_path)
+    assert set(files) == {p.name for p in nests.plates}
+    for dxf, png in files.values():
+        assert audit_dxf(tmp_path / dxf) == []
+        assert (tmp_path / png).stat().st_size > 1000
+    import ezdxf
+
+    msp = ezdxf.readfile(tmp_path / files["plate-001"][0]).modelspace()
+    layers = [e.dxf.layer for e in msp]
+    assert layers[0] == "PLATE"
+    # cut order: etching, then each part's holes before its outer contour
+    cut = [layer for layer in layers if layer.startswith("CUT")]
+    assert cut[0] == "CUT-INNER" or "CUT-INNER" not in cut
+    assert max(i for i, x in enumerate(layers) if x == "ETCH") < layers.index("CUT-OUTER")
