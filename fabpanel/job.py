@@ -32,7 +32,7 @@ NonNegativeLength = Annotated[float, *_quantity("length"), Field(ge=0)]
 Pressure = Annotated[float, *_quantity("pressure"), Field(ge=0)]
 Stress = Annotated[float, *_quantity("stress"), Field(gt=0)]
 Density = Annotated[float, *_quantity("density"), Field(gt=0)]
-Duration = Annotated[float, *_quantity("time"), Field(gt=0)]
+Duration = Annotated[float, *_quantity("time"), Field(ge=0)]
 
 Stage = Literal["panelize", "develop", "build", "cut", "structure"]
 #: pipeline stages in order; ``--until`` takes one of these
@@ -143,8 +143,10 @@ class CuttingSection(_Section):
     part_spacing: NonNegativeLength = "10 mm"
     #: clear border along the plate edges
     plate_margin: NonNegativeLength = "10 mm"
-    #: time budget for nesting each material/thickness group
-    nest_time: Duration = "5 s"
+    #: time budget for improving the nest of each material/thickness group. "0 s" (default) keeps
+    #: spyrrow's constructive solution, which is reproducible bit for bit; a budget gives denser
+    #: nests, but spyrrow stops on the wall clock, so the result can vary with machine load
+    nest_time: Duration = "0 s"
     #: allowed part rotations on the plate, degrees
     rotations: list[Literal[0, 90, 180, 270]] = Field(default=[0, 90, 180, 270], min_length=1)
     #: sheets are unrolled at this fibre of the plate

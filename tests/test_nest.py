@@ -9,7 +9,7 @@ from fabpanel.data import FlatPart, FlatParts, Hole
 from fabpanel.flat import audit_dxf, nest, validate_nests, write_nests
 from fabpanel.job import Job
 
-JOB = Job.from_dict({"cutting": {"nest_time": "1 s", "plate_length": "2000 mm",
+JOB = Job.from_dict({"cutting": {"nest_time": "0 s", "plate_length": "2000 mm",
                                  "plate_width": "1000 mm"}})
 
 
@@ -120,7 +120,17 @@ def test_write_nests(mixed, tmp_path):
     msp = ezdxf.readfile(tmp_path / files["plate-001"][0]).modelspace()
     layers = [e.dxf.layer for e in msp]
     assert layers[0] == "PLATE"
-    # cut order: etching, then each part's holes before its outer contour
-    cut = [layer for layer in layers if layer.startswith("CUT")]
-    assert cut[0] == "CUT-INNER" or "CUT-INNER" not in cut
+    # cut order: etching, then each part's holes before its outer contour: every inner contour
+    # lies inside the next outer contour in the file
+    from shapely.geometry import Point, Polygon
+
+    cuts = [e for e in msp if e.dxf.layer.startswith("CUT")]
+    for index, entity in enumerate(cuts):
+        if entity.dxf.layer != "CUT-INNER":
+            continue
+        centre = (entity.dxf.center if entity.dxftype() == "CIRCLE"
+                  else np.mean([p[:2] for p in entity.get_points()], axis=0))
+        following = next(e for e in cuts[index + 1:] if e.dxf.layer == "CUT-OUTER")
+        outline = Polygon([p[:2] for p in following.get_points()])
+        assert outline.contains(Point(centre[0], centre[1]))
     assert max(i for i, x in enumerate(layers) if x == "ETCH") < layers.index("CUT-OUTER")

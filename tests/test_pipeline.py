@@ -38,7 +38,7 @@ def _job(**changes) -> fp.Job:
     job = fp.Job.from_toml(EXAMPLES / "barrel-vault.toml")
     job = fp.Job.from_dict({**job.to_dict(), "input": {"path": str(VAULT)}},
                            base_dir=VAULT.parent)
-    sections = {"panelize": {"grid_u": GRID_U, "grid_v": GRID_V}, "cutting": {"nest_time": "1 s"}}
+    sections = {"panelize": {"grid_u": GRID_U, "grid_v": GRID_V}, "cutting": {"nest_time": "0 s"}}
     for section, values in changes.items():
         sections[section] = {**sections.get(section, {}), **values}
     return job.replace(**sections)
@@ -198,7 +198,7 @@ def test_force_replaces_only_after_success(tmp_path):
 
 def test_mesh_input_runs_end_to_end(tmp_path):
     job = fp.Job.for_input(EXAMPLES / "barrel-vault.obj", units="m",
-                           panelize={"grid_u": 10, "grid_v": 10}, cutting={"nest_time": "1 s"})
+                           panelize={"grid_u": 10, "grid_v": 10}, cutting={"nest_time": "0 s"})
     result = fp.run(job, out_dir=tmp_path / "out", jobs=2, until="build")
     assert len(result.model.parts) == 600
     assert not [i for i in result.issues if i.severity == "error"]

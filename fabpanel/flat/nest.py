@@ -154,36 +154,28 @@ def _nest_group(items: list[_Item], job: Job, grow: float, deadline_s: float, se
     slot = cutting.plate_length - 2 * cutting.plate_margin + 2 * grow
     height = cutting.plate_width - 2 * cutting.plate_margin + 2 * grow
     offset = np.array([cutting.plate_margin - grow, cutting.plate_margin - grow])
-    start = time.perf_counter()
     plates: list[list[tuple[_Item, np.ndarray]]] = []
-    remaining = sorted(items, key=lambda it: -abs(polygon_area(it.shape)))
-    rounds = 0
-    while remaining:
-        left = deadline_s - (time.perf_counter() - start)
-        seconds = _round_seconds(0.7 * left if rounds == 0 else 0.5 * left)
-        transforms, width = _pack_strip(remaining, height, seconds, seed + rounds)
-        rounds += 1
-        spans = np.array([[transform_points(t, it.shape)[:, 0].min(),
-                           transform_points(t, it.shape)[:, 0].max()]
-                          for it, t in zip(remaining, transforms)])
-        index = np.floor((spans[:, 0] + 1e-6) / slot).astype(int)
-        crossing = spans[:, 1] > (index + 1) * slot + 1e-6
-        last = int(index.max())
-        final = not crossing.any()
-        keep = ~crossing & ((index < last) | final)
-        if not keep.any():  # no progress: the largest part alone on a plate
-            keep[0] = True
-            transforms[0] = _alone(remaining[0])
-            index[0] = 0
-        for k in np.unique(index[keep]):
-            members = np.flatnonzero(keep & (index == k))
-            shift = np.eye(3)
-            shift[:2, 2] = offset - [k * slot, 0.0]
-            plates.append([(remaining[i], shift @ transforms[i]) for i in members])
-        remaining = [it for it, kept in zip(remaining, keep) if not kept]
-        log.debug("nest round %d: strip %.0f mm, %d plates so far, %d parts to repack",
-                  rounds, width, len(plates), len(remaining))
-        on_round(len(remaining))
+    ordered = sorted(items, key=lambda it: -abs(polygon_area(it.shape)))
+    transforms, width = _pack_strip(ordered, height, _round_seconds(deadline_s), seed)
+    on_round(0)
+    spans = np.array([[transform_points(t, it.shape)[:, 0].min(),
+                       transform_points(t, it.shape)[:, 0].max()]
+                      for it, t in zip(ordered, transforms)])
+    # Cut the strip into plates with windows one plate long: each window starts at the left end
+    # of the leftmost part not yet taken and takes every untaken part lying wholly inside it.
+    # Parts never overlap in the strip, so they cannot overlap on a plate; every part fits a
+    # window on its own because it was only offered the rotations that fit a plate.
+    taken = np.zeros(len(ordered), dtype=bool)
+    while not taken.all():
+        x0 = spans[~taken, 0].min()
+        inside = ~taken & (spans[:, 0] >= x0 - 1e-6) & (spans[:, 1] <= x0 + slot + 1e-6)
+        if not inside.any():                  # cannot happen for parts that fit, but never loop
+            inside[np.flatnonzero(~taken)[0]] = True
+        shift = np.eye(3)
+        shift[:2, 2] = offset - [x0, 0.0]
+        plates.append([(ordered[i], shift @ transforms[i]) for i in np.flatnonzero(inside)])
+        taken |= inside
+    log.debug("nest: strip %.0f mm cut into %d plates", width, len(plates))
     return plates
 
 

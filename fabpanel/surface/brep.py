@@ -55,7 +55,8 @@ def shape_to_brep(shape) -> bytes:
     from OCP.TopTools import TopTools_FormatVersion
 
     stream = io.BytesIO()
-    BRepTools.Write_s(shape, stream, False, False, TopTools_FormatVersion.TopTools_FormatVersion_CURRENT)
+    BRepTools.Write_s(shape, stream, False, False,
+                      TopTools_FormatVersion.TopTools_FormatVersion_CURRENT)
     return stream.getvalue()
 
 
