@@ -11,23 +11,57 @@ plates. ``run(job)`` does it all and writes the output folder; each stage is als
 
 __version__ = "0.1.0"
 
-from .data import (DevelopedPanels, FlatPart, FlatParts, Hole, Model, Nests, PanelLayout, Part,
-                   Placement, Plate, Surface)
-from .errors import FabpanelError, GeometryError, InputError, Issue, KernelError, SolverError
-from .job import STAGES, Job
-from .pipeline import Result, load, run
-
-
+from .data import (
+                   DevelopedPanels,
+                   FlatPart,
+                   FlatParts,
+                   Hole,
+                   Model,
+                   Nests,
+                   PanelLayout,
+                   Part,
+                   Placement,
+                   Plate,
+                   Surface,
+)
 from .develop import develop
+from .errors import FabpanelError, GeometryError, InputError, Issue, KernelError, SolverError
 from .flat import cut
 from .flat.nest import nest
+from .job import STAGES, Job
 from .model import build
 from .panelize import panelize
+from .pipeline import Result, load, run
 from .surface import load_surface
 
 __all__ = [
-    "__version__", "Job", "STAGES", "run", "load", "Result", "load_surface", "panelize",
-    "develop", "build", "cut", "nest", "Surface", "PanelLayout", "DevelopedPanels", "Model",
-    "Part", "Hole", "FlatPart", "FlatParts", "Placement", "Plate", "Nests", "Issue",
-    "FabpanelError", "InputError", "GeometryError", "KernelError", "SolverError",
+                   "STAGES",
+                   "DevelopedPanels",
+                   "FabpanelError",
+                   "FlatPart",
+                   "FlatParts",
+                   "GeometryError",
+                   "Hole",
+                   "InputError",
+                   "Issue",
+                   "Job",
+                   "KernelError",
+                   "Model",
+                   "Nests",
+                   "PanelLayout",
+                   "Part",
+                   "Placement",
+                   "Plate",
+                   "Result",
+                   "SolverError",
+                   "Surface",
+                   "__version__",
+                   "build",
+                   "cut",
+                   "develop",
+                   "load",
+                   "load_surface",
+                   "nest",
+                   "panelize",
+                   "run",
 ]

@@ -234,7 +234,8 @@ def _write_outputs(result: Result, folder: Path, progress: Progress) -> None:
 
         (folder / "report").mkdir()
         write_report(result, folder / "report")
-    progress.finish("write", time.perf_counter() - started, str(folder))
+    written = sum(1 for path in folder.rglob("*") if path.is_file())
+    progress.finish("write", time.perf_counter() - started, f"{written} files")
 
 
 def _json_default(value):

@@ -33,7 +33,7 @@ def cylinder_developed(radius: float = 4000.0, length: float = 2400.0, n_arc: in
     s = np.linspace(0.0, 1.0, k)
     for ix in range(n_len):
         for it in range(n_arc):
-            c = lambda a, b: a * (n_arc + 1) + b  # noqa: E731
+            c = lambda a, b: a * (n_arc + 1) + b
             # counter-clockwise seen from outside (+radial): first along the angle, then along x
             quads.append([c(ix, it), c(ix, it + 1), c(ix + 1, it + 1), c(ix + 1, it)])
             gt = ts[it] + s[:, None] * (ts[it + 1] - ts[it]) + 0 * s[None, :]

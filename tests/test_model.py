@@ -9,9 +9,14 @@ from conftest import cylinder_developed
 from fabpanel.errors import KernelError
 from fabpanel.geom.polygon import polygon_area
 from fabpanel.job import Job
-from fabpanel.model import (build, read_step_parts, write_glb, write_panel_steps,
-                            write_step_assembly)
-from fabpanel.model import occ
+from fabpanel.model import (
+    build,
+    occ,
+    read_step_parts,
+    write_glb,
+    write_panel_steps,
+    write_step_assembly,
+)
 from fabpanel.model.build import buildup_offsets, clip_polyline
 
 R, LENGTH, ARC = 4000.0, 2400.0, np.pi / 3

@@ -14,5 +14,13 @@ from .nest import nest, validate_nests
 from .nest_output import write_nests
 from .unroll import cut
 
-__all__ = ["cut", "write_part_dxf", "write_parts", "audit_dxf", "part_area_from_dxf", "nest",
-           "validate_nests", "write_nests"]
+__all__ = [
+           "audit_dxf",
+           "cut",
+           "nest",
+           "part_area_from_dxf",
+           "validate_nests",
+           "write_nests",
+           "write_part_dxf",
+           "write_parts",
+]

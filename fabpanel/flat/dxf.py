@@ -13,8 +13,8 @@ no SPLINE/ELLIPSE/TEXT. Layers by operation:
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Iterable
 
 import ezdxf
 import numpy as np

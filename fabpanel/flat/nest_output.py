@@ -13,15 +13,15 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import PathPatch  # noqa: E402
-from matplotlib.path import Path as MplPath  # noqa: E402
-from shapely.geometry import Polygon  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.patches import PathPatch
+from matplotlib.path import Path as MplPath
+from shapely.geometry import Polygon
 
-from ..data import FlatPart, FlatParts, Nests, Plate  # noqa: E402
-from .dxf import add_part, etch_polylines, new_document, save  # noqa: E402
-from .nest import transform_points  # noqa: E402
+from ..data import FlatPart, FlatParts, Nests, Plate
+from .dxf import add_part, etch_polylines, new_document, save
+from .nest import transform_points
 
 log = logging.getLogger(__name__)
 

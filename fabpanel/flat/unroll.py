@@ -191,5 +191,13 @@ def cut(model: Model, job: Job) -> FlatParts:
     return FlatParts(parts=tuple(parts), metrics=metrics, issues=tuple(issues))
 
 
-__all__ = ["cut", "unroll_sheet", "flat_plate", "place_labels", "ruling_direction",
-           "bend_lines_of", "grid_outline", "grid_sides"]
+__all__ = [
+    "bend_lines_of",
+    "cut",
+    "flat_plate",
+    "grid_outline",
+    "grid_sides",
+    "place_labels",
+    "ruling_direction",
+    "unroll_sheet",
+]

@@ -7,4 +7,4 @@ worker processes, :mod:`fabpanel.model.export` writes and re-reads the assembly 
 from .build import build
 from .export import read_step_parts, write_glb, write_panel_steps, write_step_assembly
 
-__all__ = ["build", "write_step_assembly", "write_panel_steps", "write_glb", "read_step_parts"]
+__all__ = ["build", "read_step_parts", "write_glb", "write_panel_steps", "write_step_assembly"]

@@ -15,7 +15,6 @@ Kernel behaviour relied on here is pinned in ``tests/test_kernel_quirks.py``:
 
 from __future__ import annotations
 
-import io
 from collections.abc import Iterable
 
 import numpy as np
@@ -23,26 +22,31 @@ from OCP.Approx import Approx_ParametrizationType
 from OCP.BRep import BRep_Tool
 from OCP.BRepAdaptor import BRepAdaptor_Curve
 from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
-from OCP.BRepBuilderAPI import (BRepBuilderAPI_MakeEdge, BRepBuilderAPI_MakeFace,
-                                BRepBuilderAPI_MakeWire)
+from OCP.BRepBuilderAPI import (
+    BRepBuilderAPI_MakeEdge,
+    BRepBuilderAPI_MakeFace,
+    BRepBuilderAPI_MakeWire,
+)
 from OCP.BRepCheck import BRepCheck_Analyzer
 from OCP.BRepGProp import BRepGProp
 from OCP.BRepOffsetAPI import BRepOffsetAPI_MakeThickSolid
 from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
-from OCP.BRepTools import BRepTools
-from OCP.BRep import BRep_Builder
-from OCP.Geom import Geom_BSplineSurface, Geom_OffsetSurface, Geom_Surface
-from OCP.GeomAPI import (GeomAPI_Interpolate, GeomAPI_PointsToBSplineSurface,
-                         GeomAPI_ProjectPointOnSurf)
-from OCP.GProp import GProp_GProps
-from OCP.gp import gp_Pnt, gp_Vec
 from OCP.collections import Array2_gp_Pnt as TColgp_Array2OfPnt
 from OCP.collections import HArray1_gp_Pnt
+from OCP.Geom import Geom_BSplineSurface, Geom_OffsetSurface, Geom_Surface
+from OCP.GeomAPI import (
+    GeomAPI_Interpolate,
+    GeomAPI_PointsToBSplineSurface,
+    GeomAPI_ProjectPointOnSurf,
+)
+from OCP.gp import gp_Pnt, gp_Vec
+from OCP.GProp import GProp_GProps
 from OCP.TopAbs import TopAbs_EDGE, TopAbs_SOLID, TopAbs_VERTEX
 from OCP.TopExp import TopExp_Explorer
 from OCP.TopoDS import TopoDS, TopoDS_Shape
 
 from ..errors import KernelError
+from ..surface.brep import brep_to_shape, shape_to_brep
 
 #: tolerance of faces made from fitted surfaces, mm (OCCT's default Precision::Confusion is 1e-7)
 FACE_TOLERANCE = 1e-6
@@ -314,25 +318,10 @@ def max_distance_to_plane(shape: TopoDS_Shape, plane: np.ndarray, per_edge: int 
 # serialisation
 # --------------------------------------------------------------------------------------------
 def to_brep(shape: TopoDS_Shape) -> bytes:
-    """The shape as OCCT BREP text (no triangulation), bytes."""
-    from OCP.TopTools import TopTools_FormatVersion
-
-    stream = io.BytesIO()
-    BRepTools.Write_s(shape, stream, False, False,
-                      TopTools_FormatVersion.TopTools_FormatVersion_CURRENT)
-    data = stream.getvalue()
-    if not data:
-        raise KernelError("BREP writing gave no data")
-    return data
+    """The shape as OCCT BREP text (no triangulation): what crosses process boundaries."""
+    return shape_to_brep(shape)
 
 
 def from_brep(data: bytes, name: str = "shape") -> TopoDS_Shape:
-    """Read BREP text bytes back into a shape."""
-    shape = TopoDS_Shape()
-    try:
-        BRepTools.Read_s(shape, io.BytesIO(data), BRep_Builder())
-    except Exception as err:
-        raise KernelError(f"BREP reading of {name} failed: {err}") from err
-    if shape.IsNull():
-        raise KernelError(f"BREP reading of {name} gave an empty shape")
-    return shape
+    """Read BREP text bytes back into a shape (:class:`KernelError` naming ``name`` if not)."""
+    return brep_to_shape(data, name)

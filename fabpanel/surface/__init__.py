@@ -23,8 +23,15 @@ from .query import SurfaceQuery
 
 log = logging.getLogger(__name__)
 
-__all__ = ["load_surface", "SurfaceQuery", "describe_surface", "boundary_loops",
-           "brep_to_shape", "shape_to_brep", "SUPPORTED_EXTENSIONS"]
+__all__ = [
+    "SUPPORTED_EXTENSIONS",
+    "SurfaceQuery",
+    "boundary_loops",
+    "brep_to_shape",
+    "describe_surface",
+    "load_surface",
+    "shape_to_brep",
+]
 
 #: every file extension load_surface reads
 SUPPORTED_EXTENSIONS = tuple(MESH_FORMATS) + tuple(BREP_FORMATS)
@@ -67,8 +74,8 @@ def describe_surface(surface: Surface) -> dict:
         "source": str(surface.source),
         "format": surface.format,
         "units": surface.units,
-        "vertices": int(len(surface.vertices)),
-        "faces": int(len(surface.faces)),
+        "vertices": len(surface.vertices),
+        "faces": len(surface.faces),
         "bounds_mm": np.round(bounds, 3).tolist(),
         "size_mm": np.round(bounds[1] - bounds[0], 3).tolist(),
         "area_m2": round(surface.area / 1e6, 6),

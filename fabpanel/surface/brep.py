@@ -57,13 +57,15 @@ def shape_to_brep(shape) -> bytes:
     stream = io.BytesIO()
     BRepTools.Write_s(shape, stream, False, False,
                       TopTools_FormatVersion.TopTools_FormatVersion_CURRENT)
+    if not stream.getvalue():
+        raise KernelError("BREP writing gave no data")
     return stream.getvalue()
 
 
-def brep_to_shape(data: bytes):
+def brep_to_shape(data: bytes, name: str = "shape"):
     """``TopoDS_Shape`` from OCCT BREP text (as written by :func:`shape_to_brep`).
 
-    Raises :class:`KernelError` when the text does not hold a shape.
+    Raises :class:`KernelError` naming ``name`` when the text does not hold a shape.
     """
     from OCP.BRep import BRep_Builder
     from OCP.BRepTools import BRepTools
@@ -73,9 +75,9 @@ def brep_to_shape(data: bytes):
     try:
         BRepTools.Read_s(shape, io.BytesIO(data), BRep_Builder())
     except Exception as err:  # OCCT raises Standard_Failure subclasses through pybind11
-        raise KernelError(f"cannot read BREP data ({err})") from err
+        raise KernelError(f"cannot read the BREP data of {name} ({err})") from err
     if shape.IsNull():
-        raise KernelError("BREP data holds no shape")
+        raise KernelError(f"the BREP data of {name} holds no shape")
     return shape
 
 
@@ -129,9 +131,9 @@ def _set_session_unit_mm() -> None:
 
 
 def _read_step(path: Path):
+    from OCP.collections import Sequence_TCollection_AsciiString as AsciiSequence
     from OCP.IFSelect import IFSelect_ReturnStatus
     from OCP.STEPControl import STEPControl_Reader
-    from OCP.collections import Sequence_TCollection_AsciiString as AsciiSequence
 
     _set_session_unit_mm()
     reader = STEPControl_Reader()
@@ -219,10 +221,10 @@ def _unit_name(text: str) -> str:
 # --------------------------------------------------------------------------------------------
 def shape_faces(shape) -> list:
     """The distinct faces of ``shape`` (``TopoDS_Face`` list, in exploration order)."""
+    from OCP.collections import IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher as ShapeMap
     from OCP.TopAbs import TopAbs_FACE
     from OCP.TopExp import TopExp
     from OCP.TopoDS import TopoDS
-    from OCP.collections import IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher as ShapeMap
 
     faces = ShapeMap()
     TopExp.MapShapes_s(shape, TopAbs_FACE, faces)
