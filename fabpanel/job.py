@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -208,28 +207,59 @@ class _JobModel(_Section):
 _SECTION_NAMES = tuple(_JobModel.model_fields)
 
 
-@dataclass(frozen=True)
 class Job:
-    """A validated job.
+    """A validated, immutable job.
 
-    Build one with :meth:`from_toml`, :meth:`from_dict` or :meth:`for_input`; change it with
-    :meth:`replace` (returns a new job). ``base_dir`` is the folder relative paths start from.
+    Build one from sections, as a TOML file would hold them::
+
+        Job(input={"path": "vault.obj", "units": "m"}, sandwich={"rib_height": "200 mm"})
+
+    or with :meth:`from_toml`, :meth:`from_dict` or :meth:`for_input`; change it with
+    :meth:`replace` (returns a new job). ``base_dir`` is the folder relative paths start from
+    (default: the current folder). Sections are read as attributes: ``job.sandwich.rib_height``
+    (internal units: mm, MPa, kg/mm3, s).
     """
 
-    settings: _JobModel
-    base_dir: Path
-    source: Path | None = None
+    __slots__ = ("settings", "base_dir", "source")
+
+    def __init__(self, settings: _JobModel | None = None, base_dir: str | Path = ".",
+                 source: str | Path | None = None, **sections: dict[str, Any]):
+        if settings is None:
+            where = str(source) if source else "job"
+            try:
+                settings = _JobModel.model_validate(sections)
+            except ValidationError as err:
+                raise InputError(f"{where}: {_describe(err)}") from None
+        elif sections:
+            raise TypeError("give either settings or sections, not both")
+        object.__setattr__(self, "settings", settings)
+        object.__setattr__(self, "base_dir", Path(base_dir).resolve())
+        object.__setattr__(self, "source", Path(source) if source else None)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise AttributeError("Job is immutable; use job.replace(section={...})")
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, Job) and self.settings == other.settings
+                and self.base_dir == other.base_dir)
+
+    def __hash__(self) -> int:
+        return hash((self.base_dir, repr(self.settings)))
+
+    def __repr__(self) -> str:
+        return f"Job(source={self.source}, base_dir={self.base_dir}, {self.to_dict()})"
 
     # -- construction -------------------------------------------------------------------------
     @classmethod
     def from_dict(cls, data: dict[str, Any], base_dir: str | Path = ".",
                   source: str | Path | None = None) -> Job:
-        where = str(source) if source else "job"
-        try:
-            settings = _JobModel.model_validate(data)
-        except ValidationError as err:
-            raise InputError(f"{where}: {_describe(err)}") from None
-        return cls(settings, Path(base_dir).resolve(), Path(source) if source else None)
+        if not isinstance(data, dict):
+            raise InputError(f"{source or 'job'}: expected sections such as [input], got "
+                             f"{type(data).__name__}")
+        unknown = [key for key in data if not isinstance(key, str)]
+        if unknown:
+            raise InputError(f"{source or 'job'}: section names must be text, got {unknown[0]!r}")
+        return cls(None, base_dir, source, **data)
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Job:

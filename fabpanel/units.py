@@ -65,7 +65,8 @@ def parse_quantity(value: object, dimension: str, where: str = "") -> float:
 
 def format_quantity(value: float, dimension: str) -> str:
     """Write an internal value back with its internal unit ("3 mm")."""
-    return f"{value:g} {INTERNAL_UNIT[dimension]}"
+    # 15 significant digits: exact enough to round-trip, without binary noise (7.85e-06)
+    return f"{value:.15g} {INTERNAL_UNIT[dimension]}"
 
 
 def length_scale(units: str) -> float:

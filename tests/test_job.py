@@ -83,3 +83,13 @@ def test_replace_returns_a_new_validated_job():
     assert smaller.panelize.panel_size == 1000.0 and job.panelize.panel_size == 1200.0
     with pytest.raises(InputError):
         job.replace(panelize={"panel_size": "big"})
+
+
+def test_job_from_sections_like_the_toml():
+    job = Job(input={"path": "vault.obj", "units": "m"}, sandwich={"rib_height": "200 mm"})
+    assert job.sandwich.rib_height == 200.0 and job.input.units == "m"
+    assert Job.from_dict(job.to_dict()).to_dict() == job.to_dict()
+    with pytest.raises(InputError, match="rib_heigth"):
+        Job(sandwich={"rib_heigth": "2 mm"})
+    with pytest.raises(AttributeError):
+        job.base_dir = Path("/")
