@@ -36,7 +36,7 @@ def main() -> None:
         record = {
             "panel_size": size.strip(), "panels": result.summary["panels"]["count"],
             "parts": result.summary["parts"]["count"], "plates": len(result.nests.plates),
-            "utilisation": result.nests.metrics.get("utilisation_overall"),
+            "utilisation": result.nests.metrics.get("utilisation"),
             "seconds_total": round(seconds, 2), "seconds_by_stage": result.summary["timings_s"],
             "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
             "peak_rss_children_mb": round(

@@ -62,16 +62,31 @@ class InputSection(_Section):
 class PanelizeSection(_Section):
     """[panelize]: how the surface is covered with quad panels."""
 
-    #: ``auto`` picks ``grid`` for four-sided surfaces
-    method: Literal["auto", "grid"] = "auto"
+    #: ``auto``: ``grid`` for four-sided surfaces without openings, ``skeleton`` otherwise;
+    #: ``layout``: the quad mesh in ``layout`` is used as the panel layout
+    method: Literal["auto", "grid", "skeleton", "layout"] = "auto"
     #: target panel edge length (panels are made as close to it as the layout allows)
     panel_size: PositiveLength = "1200 mm"
     #: explicit panel counts along the grid's two directions (override ``panel_size``)
     grid_u: int | None = Field(default=None, ge=1, le=1000)
     grid_v: int | None = Field(default=None, ge=1, le=1000)
-    #: corner detection for four-sided boundaries: turning angle above which a boundary vertex is
-    #: a corner (degrees)
+    #: boundary vertices turning more than this are corners (degrees)
     corner_angle: float = Field(default=30.0, gt=0, lt=180)
+    #: user layout: a quad mesh (OBJ, PLY, 3DM) in the input's units, relative to the job file
+    layout: str | None = None
+    #: skeleton: densify the coarse quads with per-strip counts, or by Catmull-Clark levels
+    density: Literal["strips", "catmull-clark"] = "strips"
+    #: skeleton: relax the dense layout on the surface (even edges, fair lines)
+    relax: bool = True
+    #: skeleton: points (x, y, z in the input's units) that must become layout vertices,
+    #: e.g. columns
+    singular_points: list[tuple[float, float, float]] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _layout_has_a_file(self) -> PanelizeSection:
+        if self.method == "layout" and not self.layout:
+            raise ValueError('method "layout" needs the quad mesh: set layout = "my-layout.obj"')
+        return self
 
 
 class DevelopSection(_Section):

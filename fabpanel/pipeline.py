@@ -169,7 +169,7 @@ def _run_stages(job: Job, surface: Surface, folder: Path | None, until: Stage, j
         from .flat.nest import nest
 
         def cut_and_nest():
-            flat = cut(state["model"], job)
+            flat = cut(state["model"], job, jobs=jobs)
             return flat, nest(flat, job, progress=lambda fraction, message: None)
 
         (flat, nests), timings["cut"] = _timed(progress, "cut", None, cut_and_nest)
@@ -193,12 +193,53 @@ def _run_stages(job: Job, surface: Surface, folder: Path | None, until: Stage, j
     summary = summarise(result, timings, structure)
     result = Result(**{**result.__dict__, "summary": summary})
     if folder is not None:
-        _write_outputs(result, folder, progress)
+        _write_outputs(result, folder, progress, jobs)
     return result
 
 
-def _write_outputs(result: Result, folder: Path, progress: Progress) -> None:
+def _write_part_chunk(flat: FlatParts, folder: Path) -> dict:
+    from .flat.dxf import write_parts
+
+    return write_parts(flat, folder)
+
+
+def _write_plate_chunk(nests: Nests, flat: FlatParts, folder: Path) -> dict:
+    from .flat.nest_output import write_nests
+
+    return write_nests(nests, flat, folder)
+
+
+def _write_cut_files(flat: FlatParts, nests: Nests, folder: Path,
+                     workers: int) -> tuple[dict, dict]:
+    """Part DXFs and plate DXF/PNGs, in worker processes (each file is independent)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    def chunks(items):
+        size = max(1, -(-len(items) // (4 * workers)))
+        return [items[i:i + size] for i in range(0, len(items), size)]
+
+    part_chunks = [FlatParts(parts=tuple(c)) for c in chunks(list(flat.parts))]
+    plate_chunks = [Nests(plates=tuple(c)) for c in chunks(list(nests.plates))]
+    if workers == 1:
+        part_maps = [_write_part_chunk(c, folder / "parts") for c in part_chunks]
+        plate_maps = [_write_plate_chunk(c, flat, folder / "nests") for c in plate_chunks]
+    else:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            part_futures = [pool.submit(_write_part_chunk, c, folder / "parts")
+                            for c in part_chunks]
+            plate_futures = [pool.submit(_write_plate_chunk, c, flat, folder / "nests")
+                             for c in plate_chunks]
+            part_maps = [f.result() for f in part_futures]
+            plate_maps = [f.result() for f in plate_futures]
+    part_files = {k: v for m in part_maps for k, v in m.items()}
+    plate_files = {k: v for m in plate_maps for k, v in m.items()}
+    return part_files, plate_files
+
+
+def _write_outputs(result: Result, folder: Path, progress: Progress,
+                   jobs: int | None = None) -> None:
     job = result.job
+    workers = jobs or os.cpu_count() or 1
     started = time.perf_counter()
     progress.start("write", None)
     files: dict[str, list[str]] = {}
@@ -218,13 +259,12 @@ def _write_outputs(result: Result, folder: Path, progress: Progress) -> None:
         if job.output.glb:
             write_glb(result.model, folder / "model" / "preview.glb")
     if result.flat is not None and job.output.dxf:
-        from .flat.dxf import write_parts
-        from .flat.nest_output import write_nests
-
         (folder / "cut" / "parts").mkdir(parents=True)
         (folder / "cut" / "nests").mkdir(parents=True)
-        note(write_parts(result.flat, folder / "cut" / "parts"), "cut/parts")
-        note(write_nests(result.nests, result.flat, folder / "cut" / "nests"), "cut/nests")
+        part_files, plate_files = _write_cut_files(result.flat, result.nests, folder / "cut",
+                                                   workers)
+        note(part_files, "cut/parts")
+        note(plate_files, "cut/nests")
 
     manifest = build_manifest(result, files)
     (folder / "manifest.json").write_text(json.dumps(manifest, indent=1, default=_json_default))

@@ -84,4 +84,4 @@ def test_grid_refuses_surfaces_with_openings(tmp_path):
     path.write_text("\n".join(f"v {x} {y} {z}" for x, y, z in vertices) + "\n"
                     + "\n".join("f " + " ".join(str(i + 1) for i in q) for q in quads) + "\n")
     with pytest.raises((GeometryError, InputError), match="boundary loop"):
-        panelize(load_surface(path, "m"), Job.from_dict({}))
+        panelize(load_surface(path, "m"), Job(panelize={"method": "grid"}))

@@ -9,8 +9,11 @@ etched labels.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
+import os
 from collections import Counter
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 import shapely
@@ -155,8 +158,12 @@ def flat_plate(part: Part) -> FlatPart:
                     labels=labels, max_strain=0.0)
 
 
-def cut(model: Model, job: Job) -> FlatParts:
-    """Lay every part of the model flat.
+def _lay_flat(part: Part) -> FlatPart:
+    return unroll_sheet(part) if part.kind.startswith("sheet") else flat_plate(part)
+
+
+def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
+    """Lay every part of the model flat (sheets unrolled in ``jobs`` worker processes).
 
     Sheets (``sheet-top``/``sheet-bottom``) are unrolled from their ``surface_grid``; ribs and
     stiffeners keep their outline. Issues: ``unroll-strain`` when a sheet's strain exceeds
@@ -164,8 +171,15 @@ def cut(model: Model, job: Job) -> FlatParts:
     """
     tolerance = job.develop.strain_tolerance
     parts, issues = [], []
-    for part in model.parts:
-        flat = unroll_sheet(part) if part.kind.startswith("sheet") else flat_plate(part)
+    # the solids stay behind: workers need the sample grids and outlines only
+    light = [dataclasses.replace(part, brep=b"") for part in model.parts]
+    workers = jobs or os.cpu_count() or 1
+    if workers > 1 and len(light) > 8:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            flats = list(pool.map(_lay_flat, light, chunksize=max(1, len(light) // (4 * workers))))
+    else:
+        flats = [_lay_flat(part) for part in light]
+    for part, flat in zip(model.parts, flats):
         if flat.max_strain > tolerance:
             issues.append(Issue("unroll-strain", f"{part.id} unrolls with strain "
                                 f"{flat.max_strain:.2e} > {tolerance:.1e}: the cut sheet will not "

@@ -22,22 +22,17 @@ from .quality import layout_metrics
 log = logging.getLogger(__name__)
 
 
-def panelize(surface: Surface, job: Job, query: SurfaceQuery | None = None) -> PanelLayout:
-    """Cover ``surface`` with quad panels as ``job.panelize`` asks.
+def grid_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
+    """Structured grid of a four-sided surface (see the module docstring).
 
-    Raises :class:`GeometryError` when the chosen method cannot handle the surface (e.g. ``grid``
-    on a surface with openings).
+    Raises :class:`GeometryError` for surfaces with openings or without four corners.
     """
     settings = job.panelize
-    query = query or SurfaceQuery(surface)
-    method = settings.method
-    if method == "auto":
-        method = "grid"
     if len(surface.boundary_loops) != 1:
         raise GeometryError(
             f"{surface.source.name}: the grid method needs a four-sided surface with one boundary "
             f"loop, this one has {len(surface.boundary_loops)} (closed surfaces have none, "
-            f"openings add loops); split the surface into four-sided patches")
+            f"openings add loops); use [panelize] method = \"skeleton\" or split the surface")
     if surface.brep is not None and query.face_count == 1:
         vertices, quads, parameters = _parameter_grid(query, settings)
     else:
@@ -47,10 +42,22 @@ def panelize(surface: Surface, job: Job, query: SurfaceQuery | None = None) -> P
     ids = tuple(f"P{i + 1:03d}" for i in range(len(quads)))
     layout = PanelLayout(vertices=vertices, quads=quads, panel_ids=ids, method="grid",
                          parameters=parameters)
-    metrics, issues = layout_metrics(layout, query, settings.panel_size, job.cutting)
+    loops = [surface.vertices[loop] for loop in surface.boundary_loops]
+    metrics, issues = layout_metrics(layout, query, settings.panel_size, job.cutting, loops)
     log.info("grid panelisation: %d panels", len(quads))
     return PanelLayout(vertices=vertices, quads=quads, panel_ids=ids, method="grid",
                        parameters=parameters, metrics=metrics, issues=issues)
+
+
+def is_four_sided(surface: Surface, corner_angle: float) -> bool:
+    """Whether the surface has one boundary loop with (at least) four corners."""
+    if len(surface.boundary_loops) != 1:
+        return False
+    try:
+        boundary_corners(surface.vertices[surface.boundary_loops[0]], corner_angle)
+    except GeometryError:
+        return False
+    return True
 
 
 def _divisions(length: float, target: float, explicit: int | None) -> int:

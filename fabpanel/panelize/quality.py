@@ -6,6 +6,7 @@ import numpy as np
 
 from ..data import PanelLayout
 from ..errors import Issue
+from ..geom.polygon import point_segment_distances
 from ..surface import SurfaceQuery
 
 
@@ -36,8 +37,54 @@ def panel_extents(corners: np.ndarray) -> np.ndarray:
     return np.stack([xs.max(1) - xs.min(1), ys.max(1) - ys.min(1)], axis=1)
 
 
+def vertex_valences(quads: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """Edge valence of every vertex and whether it lies on the layout's boundary.
+
+    Returns ``valence (n,) int`` and ``on_boundary (n,) bool``.
+    """
+    sides = np.sort(np.stack([quads, np.roll(quads, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    edges, counts = np.unique(sides, axis=0, return_counts=True)
+    valence = np.bincount(edges.ravel(), minlength=n_vertices)
+    on_boundary = np.zeros(n_vertices, dtype=bool)
+    on_boundary[edges[counts == 1].ravel()] = True
+    return valence, on_boundary
+
+
+def singular_vertices(layout: PanelLayout) -> list[dict]:
+    """Interior vertices whose valence is not 4 (the singular points of the quad layout)."""
+    valence, on_boundary = vertex_valences(layout.quads, len(layout.vertices))
+    used = np.zeros(len(layout.vertices), dtype=bool)
+    used[layout.quads.ravel()] = True
+    singular = np.flatnonzero(used & ~on_boundary & (valence != 4))
+    return [{"vertex": int(v), "valence": int(valence[v]),
+             "position_mm": [round(float(c), 3) for c in layout.vertices[v]]} for v in singular]
+
+
+def boundary_coverage(layout: PanelLayout, design_loops: list[np.ndarray]) -> float:
+    """Largest distance between the layout's boundary and the design boundary, mm.
+
+    Both ways: design boundary points to the layout's boundary edges (straight panel sides), and
+    layout boundary vertices to the design boundary polylines.
+    """
+    sides = np.stack([layout.quads, np.roll(layout.quads, -1, axis=1)], axis=2).reshape(-1, 2)
+    key = np.sort(sides, axis=1)
+    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    boundary_sides = sides[counts[inverse.ravel()] == 1]
+    if len(boundary_sides) == 0 or not design_loops:
+        return 0.0
+    starts, ends = layout.vertices[boundary_sides[:, 0]], layout.vertices[boundary_sides[:, 1]]
+    design_points = np.concatenate(design_loops)
+    design_starts = np.concatenate(design_loops)
+    design_ends = np.concatenate([np.roll(loop, -1, axis=0) for loop in design_loops])
+    to_layout = point_segment_distances(design_points, starts, ends)
+    to_design = point_segment_distances(layout.vertices[np.unique(boundary_sides)],
+                                        design_starts, design_ends)
+    return float(max(to_layout.max(), to_design.max()))
+
+
 def layout_metrics(layout: PanelLayout, query: SurfaceQuery, target: float,
-                   cutting) -> tuple[dict, tuple[Issue, ...]]:
+                   cutting, design_loops: list[np.ndarray] | None = None
+                   ) -> tuple[dict, tuple[Issue, ...]]:
     """Measures of a layout against the target panel size and the stock plate."""
     corners = layout.vertices[layout.quads]
     edges = layout.edges
@@ -59,8 +106,12 @@ def layout_metrics(layout: PanelLayout, query: SurfaceQuery, target: float,
               f"larger than the usable plate {usable[0]:.0f} x {usable[1]:.0f} mm; lower "
               f"[panelize] panel_size", layout.panel_ids[i], "error")
         for i in np.flatnonzero(~fits))
+    singular = singular_vertices(layout)
     metrics = {
         "panels": len(layout.quads),
+        "singular_vertices": singular,
+        "singular_valences": {str(v): sum(s["valence"] == v for s in singular)
+                              for v in sorted({s["valence"] for s in singular})},
         "vertices": len(layout.vertices),
         "target_edge_mm": round(float(target), 3),
         "edge_length_mm": {"min": round(float(lengths.min()), 3),
@@ -76,5 +127,18 @@ def layout_metrics(layout: PanelLayout, query: SurfaceQuery, target: float,
         "panels_exceeding_plate": int((~fits).sum()),
         "vertex_distance_to_surface_mm": {"max": round(float(distances.max()), 6),
                                           "mean": round(float(distances.mean()), 6)},
+        "edge_lengths_within_band": _band_share(lengths, target),
     }
+    if design_loops is not None:
+        metrics["boundary_coverage_mm"] = round(boundary_coverage(layout, design_loops), 3)
     return metrics, issues
+
+
+#: the band around the target panel size that edges should stay in (fraction of the target)
+EDGE_BAND = (0.5, 1.25)
+
+
+def _band_share(lengths: np.ndarray, target: float) -> dict:
+    low, high = EDGE_BAND
+    inside = (lengths >= low * target) & (lengths <= high * target)
+    return {"band": [low, high], "share": round(float(inside.mean()), 4)}

@@ -51,6 +51,47 @@ def panel_figure(developed) -> str:
     return data
 
 
+def layout_figure(layout, surface) -> str:
+    """Base64 PNG: the panel layout in plan and in 3D, singular vertices marked by valence."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..panelize.quality import singular_vertices
+
+    corners = layout.vertices[layout.quads] / 1000.0
+    closed = np.concatenate([corners, corners[:, :1]], axis=1)
+    singular = singular_vertices(layout)
+    fig = plt.figure(figsize=(11, 4.6))
+    plan = fig.add_subplot(1, 2, 1)
+    for quad in closed:
+        plan.plot(quad[:, 0], quad[:, 1], color="0.3", linewidth=0.6)
+    for loop in surface.boundary_loops:
+        points = surface.vertices[np.append(loop, loop[0])] / 1000.0
+        plan.plot(points[:, 0], points[:, 1], color="tab:blue", linewidth=1.2)
+    colours = {3: "tab:orange", 5: "tab:red", 6: "tab:purple"}
+    for valence in sorted({s["valence"] for s in singular}):
+        points = np.array([s["position_mm"] for s in singular if s["valence"] == valence]) / 1e3
+        plan.scatter(points[:, 0], points[:, 1], s=30, color=colours.get(valence, "k"),
+                     label=f"valence {valence}", zorder=3)
+    if singular:
+        plan.legend(loc="best", fontsize=8)
+    plan.set_aspect("equal")
+    plan.set_xlabel("x [m]"), plan.set_ylabel("y [m]")
+    plan.set_title(f"{len(layout.quads)} panels, {len(singular)} singular vertices", fontsize=10)
+    view = fig.add_subplot(1, 2, 2, projection="3d")
+    for quad in closed:
+        view.plot(*quad.T, color="0.3", linewidth=0.5)
+    points = layout.vertices / 1000.0
+    lo, hi = points.min(0), points.max(0)
+    view.set_box_aspect(np.maximum(hi - lo, 1e-3))
+    view.view_init(elev=30, azim=-60)
+    data = _png(fig)
+    plt.close(fig)
+    return data
+
+
 def _table(rows: list[tuple[str, object]]) -> str:
     cells = "".join(f"<tr><th>{html.escape(str(k))}</th><td>{html.escape(_fmt(v))}</td></tr>"
                     for k, v in rows)
@@ -77,6 +118,9 @@ def write_report(result, folder: Path) -> None:
         if key in summary:
             sections.append(f"<h2>{key.capitalize()}</h2>")
             sections.append(_table(list(summary[key].items())))
+            if key == "panels" and result.layout is not None:
+                sections.append(f'<img alt="panel layout" src="data:image/png;base64,'
+                                f'{layout_figure(result.layout, result.surface)}">')
             if key == "developability" and result.developed is not None:
                 legend = " ".join(f'<span style="color:{c}">&#9632; {n}</span>'
                                   for n, c in CLASS_COLOURS.items())

@@ -17,7 +17,10 @@ def summarise(result, timings: dict[str, float], structure: dict) -> dict:
     }
     if result.layout is not None:
         m = result.layout.metrics
-        summary["panels"] = {"count": m["panels"], "edge_length_mm": m["edge_length_mm"],
+        summary["panels"] = {"count": m["panels"], "method": result.layout.method,
+                             "singular_valences": m.get("singular_valences", {}),
+                             "boundary_coverage_mm": m.get("boundary_coverage_mm"),
+                             "edge_length_mm": m["edge_length_mm"],
                              "corner_angle_deg": m["corner_angle_deg"],
                              "largest_panel_mm": m["largest_panel_mm"]}
     if result.developed is not None:

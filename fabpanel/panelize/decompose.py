@@ -1,0 +1,131 @@
+"""The skeleton method end to end: plane projection, coarse quads, strip densification, lifting
+onto the surface, relaxation, and the production limit (every panel must fit the stock plate).
+
+Thesis §7.1 and Appendix B; Tam & Armstrong (1991), Rigby (2003), Oval et al. (2018). The thesis
+subdivided every coarse face equally (Catmull-Clark), which made panels near narrow supports far
+too narrow and those at the top far too large (§7.1.3). Here each strip of coarse quads gets its
+own division count from its longest 3D edge, and panels that still exceed the plate get their
+strips divided further.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from ..data import PanelLayout, Surface
+from ..errors import GeometryError, Issue
+from ..geom.polygon import polyline_length
+from ..job import Job
+from ..surface import SurfaceQuery
+from ..units import length_scale
+from .quality import layout_metrics, panel_extents
+
+log = logging.getLogger(__name__)
+
+#: how many times strips are divided further for panels that exceed the plate
+PLATE_ROUNDS = 6
+
+
+def outward_normal(surface: Surface) -> np.ndarray:
+    """Area-weighted mean normal of the surface (its outer side), unit."""
+    tri = surface.vertices[surface.faces]
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]).sum(axis=0)
+    return normal / max(np.linalg.norm(normal), 1e-300)
+
+
+def _check_size(surface: Surface, target: float) -> None:
+    size = float(np.linalg.norm(np.ptp(surface.vertices, axis=0)))
+    if target > size:
+        raise GeometryError(f"{surface.source.name}: the panel size {target:g} mm is larger than "
+                            f"the surface ({size:.0f} mm across); lower [panelize] panel_size")
+    if target < size / 1000:
+        raise GeometryError(f"{surface.source.name}: the panel size {target:g} mm is below "
+                            f"1/1000 of the surface ({size:.0f} mm across), which would give "
+                            f"millions of panels; raise [panelize] panel_size")
+
+
+def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
+    """Panel layout of a surface with openings or an irregular outline by the skeleton method."""
+    from .densify import catmull_clark, densify, strip_counts
+    from .lift import lift, plane_frame, to_plane
+    from .relax import relax_on_surface
+    from .skeleton import skeleton_layout
+
+    settings = job.panelize
+    target = settings.panel_size
+    if not surface.boundary_loops:
+        raise GeometryError(f"{surface.source.name}: the surface is closed (no boundary); the "
+                            f"skeleton method needs an open surface, cut it open first")
+    _check_size(surface, target)
+    loops3d = [surface.vertices[loop] for loop in surface.boundary_loops]
+    frame = plane_frame(np.concatenate(loops3d), outward_normal(surface))
+    loops2d = [to_plane(loop, frame) for loop in loops3d]
+    features = None
+    if settings.singular_points:
+        scale = length_scale(job.input.units or "mm")
+        features = to_plane(np.asarray(settings.singular_points, dtype=float) * scale, frame)
+    coarse = skeleton_layout(loops2d, corner_angle=settings.corner_angle,
+                             point_features=features)
+
+    def lifted_length(curve: np.ndarray) -> float:
+        points, _ = lift(curve, surface, frame, query)
+        return polyline_length(points)
+
+    lengths = {key: lifted_length(curve) for key, curve in coarse.edge_curves.items()}
+    issues: list[Issue] = []
+    extra = np.zeros(0, dtype=int)
+    for round_ in range(PLATE_ROUNDS + 1):
+        if settings.density == "catmull-clark":
+            levels = max(1, int(np.ceil(np.log2(max(max(lengths.values()) / target, 1.0)))))
+            levels += round_
+            vertices2d, quads, loop_of_vertex, fixed = catmull_clark(coarse, levels)
+        else:
+            counts = np.asarray(strip_counts(coarse, lengths, target))
+            if extra.size:
+                counts = counts + extra
+            vertices2d, quads, loop_of_vertex, fixed = densify(coarse, counts)
+        vertices, _ = lift(vertices2d, surface, frame, query)
+        report = {}
+        if settings.relax:
+            boundary3d = [surface.vertices[loop] for loop in surface.boundary_loops]
+            vertices, report = relax_on_surface(vertices, quads, query, boundary3d,
+                                                loop_of_vertex, fixed, target)
+            if not report.get("converged", True):
+                issues.append(Issue("relaxation-not-converged",
+                                    f"relaxation stopped after {report.get('iterations')} "
+                                    f"iterations without converging", "", "info"))
+        oversize = _oversize_panels(vertices, quads, job)
+        if not oversize.any():
+            break
+        if settings.density == "catmull-clark":
+            continue
+        extra = _more_divisions(coarse, counts, quads, oversize, extra, settings)
+    layout = PanelLayout(vertices=vertices, quads=quads,
+                         panel_ids=tuple(f"P{i + 1:03d}" for i in range(len(quads))),
+                         method="skeleton")
+    metrics, found = layout_metrics(layout, query, target, job.cutting, loops3d)
+    metrics["coarse"] = {"vertices": int(len(coarse.vertices)), "quads": int(len(coarse.quads)),
+                         **coarse.info}
+    metrics["plate_rounds"] = round_
+    metrics["relaxation"] = report
+    log.info("skeleton panelisation: %d coarse quads -> %d panels", len(coarse.quads), len(quads))
+    return PanelLayout(vertices=vertices, quads=quads, panel_ids=layout.panel_ids,
+                       method="skeleton", metrics=metrics, issues=tuple(issues) + found)
+
+
+def _oversize_panels(vertices: np.ndarray, quads: np.ndarray, job: Job) -> np.ndarray:
+    cutting = job.cutting
+    usable = np.sort([cutting.plate_length - 2 * cutting.plate_margin,
+                      cutting.plate_width - 2 * cutting.plate_margin])[::-1]
+    extents = np.sort(panel_extents(vertices[quads]), axis=1)[:, ::-1]
+    return ~np.all(extents <= usable, axis=1)
+
+
+def _more_divisions(coarse, counts, quads, oversize, extra, settings) -> np.ndarray:
+    """One more division for every strip (all of them: the dense mesh does not record which coarse
+    face a panel came from, and all strips through an oversize panel are long ones)."""
+    if not extra.size:
+        extra = np.zeros(len(counts), dtype=int)
+    return extra + 1
