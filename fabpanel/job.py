@@ -72,7 +72,8 @@ class PanelizeSection(_Section):
     grid_v: int | None = Field(default=None, ge=1, le=1000)
     #: boundary vertices turning more than this are corners (degrees)
     corner_angle: float = Field(default=30.0, gt=0, lt=180)
-    #: user layout: a quad mesh (OBJ, PLY, 3DM) in the input's units, relative to the job file
+    #: user layout: a quad mesh (OBJ, PLY, 3DM) relative to the job file, in the input's units
+    #: (a 3DM file's own unit system wins where it has one)
     layout: str | None = None
     #: skeleton: densify the coarse quads with per-strip counts, or by Catmull-Clark levels
     density: Literal["strips", "catmull-clark"] = "strips"

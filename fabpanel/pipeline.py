@@ -249,6 +249,11 @@ def _write_outputs(result: Result, folder: Path, progress: Progress,
             names = [names] if isinstance(names, (str, Path)) else names
             files.setdefault(key, []).extend(f"{prefix}/{Path(n).name}" for n in names)
 
+    if result.layout is not None:
+        from .panelize.export import write_layout_obj
+
+        (folder / "model").mkdir(exist_ok=True)
+        write_layout_obj(result.layout, folder / "model" / "panels.obj")
     if result.model is not None:
         from .model import write_glb, write_panel_steps, write_step_assembly
 

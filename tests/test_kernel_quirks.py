@@ -49,3 +49,25 @@ def test_brep_round_trip_keeps_volume():
     again = occ.from_brep(occ.to_brep(solid))
     assert occ.is_valid(again)
     np.testing.assert_allclose(occ.volume(again), occ.volume(solid), rtol=1e-12)
+
+
+def test_spyrrow_without_improvement_time_is_reproducible():
+    """fabpanel's default nest_time of 0 s relies on spyrrow's constructive solution being
+    reproducible for a fixed seed; a time budget is not (spyrrow stops on the wall clock)."""
+    import numpy as np
+    import spyrrow
+
+    rng = np.random.default_rng(0)
+    sizes = rng.uniform(100, 900, (30, 2)).round(1)
+    items = [spyrrow.Item(str(i), [(0, 0), (w, 0), (w, h), (0, h)], demand=1,
+                          allowed_orientations=[0.0, 90.0]) for i, (w, h) in enumerate(sizes)]
+    results = []
+    for _ in range(2):
+        instance = spyrrow.StripPackingInstance("quirk", 1480.0, items)
+        config = spyrrow.StripPackingConfig(early_termination=True, num_workers=1,
+                                            total_computation_time=0, seed=0)
+        solution = instance.solve(config)
+        results.append(sorted((p.id, p.rotation, tuple(np.round(p.translation, 9)))
+                              for p in solution.placed_items))
+    assert results[0] == results[1]
+    assert len(results[0]) == len(items)
