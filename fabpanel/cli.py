@@ -97,7 +97,8 @@ def export_run(source: Path, out: Path | None, units: str | None, panel_size: st
 
     logging.basicConfig(level=logging.WARNING if quiet else logging.INFO,
                         format="%(levelname)s %(name)s: %(message)s")
-    logging.getLogger().setLevel(logging.WARNING)
+    # findings reach the user as issues in the summary; log lines would break the one-line errors
+    logging.getLogger().setLevel(logging.ERROR)
     job = _job_for(source, units, panel_size)
     reporter = _Reporter(quiet)
     try:

@@ -220,6 +220,9 @@ def test_touching_openings_are_rejected():
 
 
 def test_point_features_only_matched_when_on_a_vertex(caplog):
+    import logging
+
+    caplog.set_level(logging.WARNING)
     loops = FIXTURES["square"]
     L = skeleton_layout(loops, point_features=np.array([[0.0, 0.0], [123.0, 456.0]]))
     assert L.info["point_features_matched"] == 1

@@ -85,10 +85,27 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
             counts = np.asarray(strip_counts(coarse, lengths, target))
             if extra.size:
                 counts = counts + extra
-            vertices2d, quads, loop_of_vertex, fixed = densify(coarse, counts)
+            dense = densify(coarse, counts)
+            vertices2d, quads, loop_of_vertex, fixed = dense
+            folded = int(dense.info.get("inverted_quads", 0))
+            if folded:
+                # never hand on a silently folded mesh: the Coons patches of some coarse faces
+                # fold over (non-convex coarse faces); the layout is not usable as it is
+                raise GeometryError(
+                    f"{surface.source.name}: the skeleton layout folds over in {folded} panels "
+                    f"(non-convex coarse patches, a known limit of this version); use "
+                    f"[panelize] method = \"layout\" with a quad mesh drawn for the surface, or "
+                    f"\"grid\" for four-sided parts")
         vertices, _ = lift(vertices2d, surface, frame, query)
         report = {}
         if settings.relax:
+            # a loop without corners (a round opening) would let relaxation turn the whole ring
+            # around it: keep one vertex of every such loop in place
+            fixed = fixed.copy()
+            for loop in np.unique(loop_of_vertex[loop_of_vertex >= 0]):
+                on_loop = np.flatnonzero(loop_of_vertex == loop)
+                if not fixed[on_loop].any():
+                    fixed[on_loop[0]] = True
             boundary3d = [surface.vertices[loop] for loop in surface.boundary_loops]
             vertices, report = relax_on_surface(vertices, quads, query, boundary3d,
                                                 loop_of_vertex, fixed, target)
@@ -101,7 +118,7 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
             break
         if settings.density == "catmull-clark":
             continue
-        extra = _more_divisions(coarse, counts, quads, oversize, extra, settings)
+        extra = _more_divisions(coarse, counts, dense.face_of_quad, oversize, extra)
     layout = PanelLayout(vertices=vertices, quads=quads,
                          panel_ids=tuple(f"P{i + 1:03d}" for i in range(len(quads))),
                          method="skeleton")
@@ -123,9 +140,16 @@ def _oversize_panels(vertices: np.ndarray, quads: np.ndarray, job: Job) -> np.nd
     return ~np.all(extents <= usable, axis=1)
 
 
-def _more_divisions(coarse, counts, quads, oversize, extra, settings) -> np.ndarray:
-    """One more division for every strip (all of them: the dense mesh does not record which coarse
-    face a panel came from, and all strips through an oversize panel are long ones)."""
-    if not extra.size:
-        extra = np.zeros(len(counts), dtype=int)
-    return extra + 1
+def _more_divisions(coarse, counts: np.ndarray, face_of_quad: np.ndarray, oversize: np.ndarray,
+                    extra: np.ndarray) -> np.ndarray:
+    """One more division for both strips through every coarse face holding an oversize panel."""
+    from .densify import collect_strips, quad_edges
+
+    strip_of_edge, _ = collect_strips(coarse.quads)
+    edges, edge_of_side = quad_edges(coarse.quads)
+    faces = np.unique(face_of_quad[oversize])
+    strips = {strip_of_edge[tuple(int(v) for v in edges[e])]
+              for face in faces for e in edge_of_side[face, :2]}
+    extra = extra.copy() if extra.size else np.zeros(len(counts), dtype=int)
+    extra[sorted(strips)] += 1
+    return extra
