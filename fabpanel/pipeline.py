@@ -306,6 +306,15 @@ def versions() -> dict:
     return found
 
 
+def _flat_and_plate_of(result: Result) -> tuple[dict, dict]:
+    """Each part's flat record and the name of the plate it is nested on, by part id."""
+    flat_by_id = {p.id: p for p in result.flat.parts} if result.flat is not None else {}
+    plate_of = {placement.part_id: plate.name
+                for plate in (result.nests.plates if result.nests is not None else ())
+                for placement in plate.placements}
+    return flat_by_id, plate_of
+
+
 def build_manifest(result: Result, files: dict[str, list[str]]) -> dict:
     """The manifest: job as run, versions, units, panels, parts, nests and stage metrics."""
     panels = []
@@ -317,12 +326,7 @@ def build_manifest(result: Result, files: dict[str, list[str]]) -> dict:
             record["class"] = classes.get(record["id"])
             record["files"] = files.get(record["id"], [])
             panels.append(record)
-    flat_by_id = {p.id: p for p in result.flat.parts} if result.flat is not None else {}
-    plate_of = {}
-    if result.nests is not None:
-        for plate in result.nests.plates:
-            for placement in plate.placements:
-                plate_of[placement.part_id] = plate.name
+    flat_by_id, plate_of = _flat_and_plate_of(result)
     parts = []
     if result.model is not None:
         for part in result.model.parts:
@@ -354,12 +358,7 @@ def build_manifest(result: Result, files: dict[str, list[str]]) -> dict:
 
 
 def _write_bom(result: Result, path: Path, files: dict[str, list[str]]) -> None:
-    flat_by_id = {p.id: p for p in result.flat.parts} if result.flat is not None else {}
-    plate_of = {}
-    if result.nests is not None:
-        for plate in result.nests.plates:
-            for placement in plate.placements:
-                plate_of[placement.part_id] = plate.name
+    flat_by_id, plate_of = _flat_and_plate_of(result)
     with path.open("w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(["part", "kind", "panel", "material", "thickness_mm", "flat_area_mm2",
