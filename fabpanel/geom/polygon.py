@@ -36,3 +36,35 @@ def point_segment_distances(points: np.ndarray, starts: np.ndarray, ends: np.nda
         foot = starts[None] + t[..., None] * direction[None]
         best[first:first + chunk] = np.linalg.norm(block[:, None, :] - foot, axis=2).min(axis=1)
     return best
+
+
+#: largest (point, segment) pairs evaluated at once by closest_on_polylines
+MAX_PAIRS = 4_000_000
+
+
+def closest_on_polylines(points: np.ndarray, polyline: np.ndarray,
+                         closed: bool = True) -> np.ndarray:
+    """Closest point on a polyline for every point (any dimension), vectorised.
+
+    points : (p, d) float; polyline : (k, d) float (first point not repeated when ``closed``).
+    Returns (p, d) float.
+    """
+    points = np.asarray(points, dtype=float)
+    poly = np.asarray(polyline, dtype=float)
+    starts = poly
+    ends = np.roll(poly, -1, axis=0)
+    if not closed:
+        starts, ends = poly[:-1], poly[1:]
+    direction = ends - starts
+    length2 = np.maximum(np.einsum("sd,sd->s", direction, direction), 1e-300)
+    out = np.empty_like(points)
+    chunk = max(1, MAX_PAIRS // max(len(starts), 1))
+    for first in range(0, len(points), chunk):
+        block = points[first:first + chunk]
+        rel = block[:, None, :] - starts[None]
+        t = np.clip(np.einsum("psd,sd->ps", rel, direction) / length2, 0.0, 1.0)
+        foot = starts[None] + t[..., None] * direction[None]
+        best = np.argmin(np.einsum("psd,psd->ps", block[:, None] - foot, block[:, None] - foot),
+                         axis=1)
+        out[first:first + chunk] = foot[np.arange(len(block)), best]
+    return out

@@ -15,8 +15,7 @@ import logging
 import numpy as np
 
 from ..data import PanelLayout, Surface
-from ..errors import GeometryError, Issue
-from ..geom.polygon import polyline_length
+from ..errors import GeometryError
 from ..job import Job
 from ..surface import SurfaceQuery
 from ..units import length_scale
@@ -48,10 +47,10 @@ def _check_size(surface: Surface, target: float) -> None:
 
 def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
     """Panel layout of a surface with openings or an irregular outline by the skeleton method."""
-    from .densify import catmull_clark, densify, strip_counts
+    from .densify import ARC_LENGTH_POINTS, catmull_clark, densify, refine_polyline, strip_counts
     from .lift import lift, plane_frame, to_plane
-    from .relax import relax_on_surface
     from .skeleton import skeleton_layout
+    from .untangle import untangle
 
     settings = job.panelize
     target = settings.panel_size
@@ -69,50 +68,43 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
     coarse = skeleton_layout(loops2d, corner_angle=settings.corner_angle,
                              point_features=features)
 
-    def lifted_length(curve: np.ndarray) -> float:
+    def arc_length(curve: np.ndarray) -> np.ndarray:
+        """cumulative length on the surface of a plane polyline's points"""
         points, _ = lift(curve, surface, frame, query)
-        return polyline_length(points)
+        return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
 
-    lengths = {key: lifted_length(curve) for key, curve in coarse.edge_curves.items()}
-    issues: list[Issue] = []
+    lengths = {key: float(arc_length(refine_polyline(curve, ARC_LENGTH_POINTS))[-1])
+               for key, curve in coarse.edge_curves.items()}
     extra = np.zeros(0, dtype=int)
     for round_ in range(PLATE_ROUNDS + 1):
         if settings.density == "catmull-clark":
             levels = max(1, int(np.ceil(np.log2(max(max(lengths.values()) / target, 1.0)))))
             levels += round_
-            vertices2d, quads, loop_of_vertex, fixed = catmull_clark(coarse, levels)
+            dense = catmull_clark(coarse, levels)
         else:
             counts = np.asarray(strip_counts(coarse, lengths, target))
             if extra.size:
                 counts = counts + extra
-            dense = densify(coarse, counts)
-            vertices2d, quads, loop_of_vertex, fixed = dense
-            folded = int(dense.info.get("inverted_quads", 0))
-            if folded:
-                # never hand on a silently folded mesh: the Coons patches of some coarse faces
-                # fold over (non-convex coarse faces); the layout is not usable as it is
-                raise GeometryError(
-                    f"{surface.source.name}: the skeleton layout folds over in {folded} panels "
-                    f"(non-convex coarse patches, a known limit of this version); use "
-                    f"[panelize] method = \"layout\" with a quad mesh drawn for the surface, or "
-                    f"\"grid\" for four-sided parts")
-        vertices, _ = lift(vertices2d, surface, frame, query)
-        report = {}
+            dense = densify(coarse, counts, arc_length=arc_length)
+        vertices2d, quads, loop_of_vertex, fixed = dense
+        movable = (loop_of_vertex < 0) & ~fixed
         if settings.relax:
-            # a loop without corners (a round opening) would let relaxation turn the whole ring
-            # around it: keep one vertex of every such loop in place
-            fixed = fixed.copy()
-            for loop in np.unique(loop_of_vertex[loop_of_vertex >= 0]):
-                on_loop = np.flatnonzero(loop_of_vertex == loop)
-                if not fixed[on_loop].any():
-                    fixed[on_loop[0]] = True
-            boundary3d = [surface.vertices[loop] for loop in surface.boundary_loops]
-            vertices, report = relax_on_surface(vertices, quads, query, boundary3d,
-                                                loop_of_vertex, fixed, target)
-            if not report.get("converged", True):
-                issues.append(Issue("relaxation-not-converged",
-                                    f"relaxation stopped after {report.get('iterations')} "
-                                    f"iterations without converging", "", "info"))
+            # relaxation: right angles and even panels, fold-free by construction (the barrier),
+            # boundary samples (evenly spaced on the surface) kept
+            vertices2d, smoothing = untangle(vertices2d, quads, movable)
+        elif dense.info.get("inverted_quads", 0):
+            # without relaxation the Coons patches stay as they are, unless they fold
+            vertices2d, smoothing = untangle(vertices2d, quads, movable)
+        else:
+            smoothing = {"folded_before": 0, "folded_after": 0, "outer_iterations": 0}
+        if smoothing["folded_after"]:
+            # never hand on a silently folded mesh
+            raise GeometryError(
+                f"{surface.source.name}: the skeleton layout folds over at "
+                f"{smoothing['folded_after']} panel corners even after untangling; use "
+                f"[panelize] method = \"layout\" with a quad mesh drawn for the surface, or "
+                f"\"grid\" for four-sided parts")
+        vertices, _ = lift(vertices2d, surface, frame, query)
         oversize = _oversize_panels(vertices, quads, job)
         if not oversize.any():
             break
@@ -126,10 +118,10 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
     metrics["coarse"] = {"vertices": int(len(coarse.vertices)), "quads": int(len(coarse.quads)),
                          **coarse.info}
     metrics["plate_rounds"] = round_
-    metrics["relaxation"] = report
+    metrics["relaxation"] = smoothing
     log.info("skeleton panelisation: %d coarse quads -> %d panels", len(coarse.quads), len(quads))
     return PanelLayout(vertices=vertices, quads=quads, panel_ids=layout.panel_ids,
-                       method="skeleton", metrics=metrics, issues=tuple(issues) + found)
+                       method="skeleton", metrics=metrics, issues=found)
 
 
 def _oversize_panels(vertices: np.ndarray, quads: np.ndarray, job: Job) -> np.ndarray:

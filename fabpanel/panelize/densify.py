@@ -29,6 +29,9 @@ from .coarse import CoarseLayout
 
 log = logging.getLogger(__name__)
 
+#: a coarse edge is measured on the surface at this many points at least (``arc_length``)
+ARC_LENGTH_POINTS = 65
+
 
 # --------------------------------------------------------------------------------------------
 # topology helpers
@@ -201,12 +204,41 @@ def _grid_quads(ids: np.ndarray) -> np.ndarray:
                     axis=-1).reshape(-1, 4)
 
 
-def densify(layout: CoarseLayout, counts: np.ndarray | int) -> DenseMesh:
+def refine_polyline(curve: np.ndarray, points: int) -> np.ndarray:
+    """The polyline with every segment split evenly so that it has at least ``points`` points;
+    its own vertices are kept (corners of the curve are not cut)."""
+    curve = np.asarray(curve, dtype=float)
+    pieces = max(1, int(np.ceil((points - 1) / max(len(curve) - 1, 1))))
+    t = np.arange(pieces)[None, :, None] / pieces
+    body = (curve[:-1, None, :] + t * (curve[1:, None, :] - curve[:-1, None, :])).reshape(-1,
+                                                                                 curve.shape[1])
+    return np.vstack([body, curve[-1:]])
+
+
+def resample_by_measure(curve: np.ndarray, cumulative: np.ndarray, count: int) -> np.ndarray:
+    """(count, d) points of a polyline evenly spaced in a given arc-length measure, ends kept.
+
+    curve : (k, d) float; cumulative : (k,) float, non-decreasing measure of each point (e.g. the
+    3D arc length of a plane polyline lifted onto the surface).
+    """
+    cumulative = np.asarray(cumulative, dtype=float)
+    targets = np.linspace(cumulative[0], cumulative[-1], count)
+    out = np.stack([np.interp(targets, cumulative, curve[:, c]) for c in range(curve.shape[1])],
+                   axis=1)
+    out[0], out[-1] = curve[0], curve[-1]
+    return out
+
+
+def densify(layout: CoarseLayout, counts: np.ndarray | int,
+            arc_length: Callable[[np.ndarray], np.ndarray] | None = None) -> DenseMesh:
     """Densify a coarse layout per strip (see the module docstring).
 
     layout : the coarse layout (plane, mm).
     counts : (s,) int divisions per strip, in :func:`collect_strips` order (an int applies to
         every strip).
+    arc_length : optional callable taking a coarse edge's (k, 2) polyline and returning the
+        (k,) cumulative length of its points on the surface; the edge samples are then evenly
+        spaced on the surface, not in the plane (steep parts are foreshortened in the plane).
     Returns a :class:`DenseMesh` in the plane: coarse vertex ``i`` keeps id ``i``; then come the
     inner samples of every coarse edge (edge order of :func:`quad_edges`), then the inner grid
     points of every coarse face. Quads are counter-clockwise wherever the Coons patch of the coarse
@@ -236,7 +268,11 @@ def densify(layout: CoarseLayout, counts: np.ndarray | int) -> DenseMesh:
     for e, (a, b) in enumerate(keys):  # a loop over coarse edges
         n = int(edge_count[e])
         curve = np.asarray(layout.edge_curves[(a, b)], dtype=float)
-        samples = resample_polylines(curve[None], n + 1)[0]
+        if arc_length is None:
+            samples = resample_polylines(curve[None], n + 1)[0]
+        else:
+            fine = refine_polyline(curve, ARC_LENGTH_POINTS)
+            samples = resample_by_measure(fine, arc_length(fine), n + 1)
         inner = np.arange(next_id, next_id + n - 1)
         next_id += n - 1
         edge_ids.append(np.concatenate([[a], inner, [b]]))
@@ -411,7 +447,7 @@ def catmull_clark(vertices, quads=None, levels: int = 1, *, loop_of_vertex=None,
 def _snap_to_loops(vertices: np.ndarray, loop_of_vertex: np.ndarray, fixed: np.ndarray,
                    loops: tuple) -> np.ndarray:
     """Boundary vertices (not fixed) moved to the closest point of their loop polyline."""
-    from .relax import closest_on_polylines
+    from ..geom.polygon import closest_on_polylines
 
     out = vertices.copy()
     snap = (loop_of_vertex >= 0) & ~fixed

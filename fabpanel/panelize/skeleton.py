@@ -33,7 +33,7 @@ from shapely.geometry import Polygon
 
 from ..errors import GeometryError
 from .coarse import CoarseLayout
-from .skeleton_input import conforming_delaunay, sample_loops, validate_loops
+from .skeleton_input import conforming_delaunay, sample_loops, turning_angles, validate_loops
 
 log = logging.getLogger(__name__)
 
@@ -41,6 +41,9 @@ log = logging.getLogger(__name__)
 SPACING_SHARE = 0.01
 #: circumcentres closer than this share of the spacing are one skeleton node (cocircular samples)
 CLUSTER_SHARE = 1e-3
+#: a terminal branch whose boundary turns by this much in all (degrees) ends at a rounded
+#: corner: kept as a corner branch, not pruned as noise
+SIGNIFICANT_TURN = 60.0
 #: a skeleton branch is cut every this many degrees of turning (flipped-patch correction)
 MAX_TURN = 90.0
 
@@ -278,54 +281,98 @@ class _Decomposition:
         a, b = self.sk.chord[key]
         return b if a == c else a
 
-    def prune(self):
+    def _net_turn(self, samples: set, apex: list) -> float:
+        """Net turning (degrees, positive = convex) of the boundary run made of ``samples``
+        on the apex's loop, between the run's two end tangents."""
+        smp = self.smp
+        loop = int(smp.loop[apex[0]])
+        order = smp.order[loop]
+        position = {v: k for k, v in enumerate(order)}
+        idx = np.sort([position[v] for v in samples if smp.loop[v] == loop])
+        if len(idx) < 3:
+            return 0.0
+        m = len(order)
+        gaps = np.diff(np.concatenate([idx, [idx[0] + m]]))
+        start = (int(np.argmax(gaps)) + 1) % len(idx)
+        run = np.roll(idx, -start)
+        if loop not in self._turning:
+            self._turning[loop] = turning_angles(smp.points[order])
+        return float(self._turning[loop][run[1:-1]].sum())
+
+    def _terminal_branches(self):
+        """Every live terminal branch: (length, leaf, path nodes, chord keys, root, root key)."""
         sk = self.sk
+        out = []
+        for leaf in sorted(self.live_nodes):
+            lp = self.live_ports(leaf)
+            if len(lp) != 1 or self.eff(leaf) >= 3:
+                continue
+            path = [leaf]
+            key = sk.eside[leaf][lp[0]]
+            cur = self.other(key, leaf)
+            keys = [key]
+            while True:
+                clp = self.live_ports(cur)
+                if len(clp) == 2 and self.eff(cur) < 3:
+                    key = [sk.eside[cur][i] for i in clp if sk.eside[cur][i] != key][0]
+                    path.append(cur)
+                    keys.append(key)
+                    cur = self.other(key, cur)
+                    continue
+                break
+            if len(self.live_ports(cur)) == 1 and self.eff(cur) < 3:
+                continue  # the whole live graph is a path: keep it
+            nodes = sk.pos[path + [cur]]
+            length = float(np.linalg.norm(np.diff(nodes, axis=0), axis=1).sum())
+            out.append((length, leaf, path, keys, cur, key))
+        return out
+
+    def prune(self):
+        """Remove terminal branches, shortest first (so that the noise branches of a sampled
+        curve are gone before the branch of the rounded corner they sit on is judged)."""
+        sk = self.sk
+        self.rounded_corners = 0
+        self._turning = {}
+        absorbed = defaultdict(set)     # node -> boundary samples of branches pruned into it
         pruned_corner = pruned_noise = 0
-        changed = True
-        while changed:
-            changed = False
-            for leaf in sorted(self.live_nodes):
-                if leaf not in self.live_nodes:
-                    continue
-                lp = self.live_ports(leaf)
-                if len(lp) != 1 or self.eff(leaf) >= 3:
-                    continue
-                path = [leaf]
-                key = sk.eside[leaf][lp[0]]
-                cur = self.other(key, leaf)
-                keys = [key]
-                while True:
-                    clp = self.live_ports(cur)
-                    if len(clp) == 2 and self.eff(cur) < 3:
-                        nk = [sk.eside[cur][i] for i in clp if sk.eside[cur][i] != key][0]
-                        path.append(cur)
-                        key = nk
-                        keys.append(key)
-                        cur = self.other(key, cur)
-                        continue
-                    break
-                if len(self.live_ports(cur)) == 1 and self.eff(cur) < 3:
-                    continue  # the whole live graph is a path: keep it
-                is_corner = any(self.corner_ports[c] for c in path)
-                verts = sk.poly[leaf]
-                i0 = lp[0]
-                k = len(verts)
-                apex = [verts[j] for j in range(k) if j not in (i0, (i0 + 1) % k)]
-                if any(self.smp.corner[v] and self.smp.convex[v] for v in apex):
+        while True:
+            branches = self._terminal_branches()
+            if not branches:
+                break
+            _, leaf, path, keys, cur, key = min(branches, key=lambda b: (b[0], b[1]))
+            is_corner = any(self.corner_ports[c] for c in path)
+            verts = sk.poly[leaf]
+            i0 = self.live_ports(leaf)[0]
+            k = len(verts)
+            apex = [verts[j] for j in range(k) if j not in (i0, (i0 + 1) % k)]
+            if any(self.smp.corner[v] and self.smp.convex[v] for v in apex):
+                is_corner = True
+            samples = {v for c in path for v in sk.poly[c]}
+            for c in path:
+                samples |= absorbed.pop(c, set())
+            if not is_corner and apex:
+                # a rounded corner (no sample turns by corner_angle, but the boundary the branch
+                # reaches into turns by SIGNIFICANT_TURN in all): its apex becomes a corner, as a
+                # sharp one would be; a bump on a straight side turns ~0 net
+                if self._net_turn(samples, apex) >= SIGNIFICANT_TURN:
+                    v = apex[len(apex) // 2]
+                    self.smp.corner[v] = self.smp.convex[v] = True
+                    self.rounded_corners += 1
                     is_corner = True
-                for kk in keys:
-                    self.live_chords.discard(kk)
-                for c in path:
-                    self.live_nodes.discard(c)
-                    self.corner_ports.pop(c, None)
-                if is_corner:
-                    root_i = [i for i in sk.ports[cur] if sk.eside[cur][i] == key][0]
-                    self.corner_ports[cur].add(root_i)
-                    pruned_corner += 1
-                else:
-                    pruned_noise += 1
-                changed = True
+            for kk in keys:
+                self.live_chords.discard(kk)
+            for c in path:
+                self.live_nodes.discard(c)
+                self.corner_ports.pop(c, None)
+            if is_corner:
+                root_i = [i for i in sk.ports[cur] if sk.eside[cur][i] == key][0]
+                self.corner_ports[cur].add(root_i)
+                pruned_corner += 1
+            else:
+                absorbed[cur] |= samples
+                pruned_noise += 1
         self.info["pruned_corner_branches"] = pruned_corner
+        self.info["rounded_corners"] = self.rounded_corners
         self.info["pruned_noise_branches"] = pruned_noise
 
     @staticmethod

@@ -122,6 +122,17 @@ class _LoopCurve:
         self.cum = np.concatenate([[0.0], np.cumsum(seg)])
         self.length = float(self.cum[-1])
 
+    def between(self, s0: float, s1: float) -> np.ndarray:
+        """(k, 2) the loop from arc length s0 forward to s1, with the loop's own vertices in
+        between (so that a chord never cuts a corner of the input)."""
+        if s1 <= s0:
+            s1 += self.length
+        n = len(self.p)
+        # loop vertices strictly inside (s0, s1), over up to two turns of the loop
+        cum = np.concatenate([self.cum[:-1], self.cum[:-1] + self.length])
+        inside = np.flatnonzero((cum > s0 + 1e-9 * self.length) & (cum < s1 - 1e-9 * self.length))
+        return np.vstack([self.at(s0)[None], self.p[inside % n], self.at(s1)[None]])
+
     def at(self, s: float) -> np.ndarray:
         s = s % self.length
         i = int(np.searchsorted(self.cum, s, side="right") - 1)

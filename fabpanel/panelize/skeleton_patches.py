@@ -51,6 +51,24 @@ def _halves(pl):
     return np.array(first + [m]), m, np.array([m] + second)
 
 
+def _side_polyline(geoms: list, nodes: tuple, n: int) -> np.ndarray:
+    """Polyline of a patch side from its half-edge geometries.
+
+    Along a skeleton branch the circumcentres of the sleeve triangles zig-zag back and forth
+    when the two boundaries are sampled out of phase (nearly parallel sides: the circumcentres
+    all lie near the axis, but not in order), which folds every patch built on the branch. The
+    chord midpoints (Prasad's chordal axis) advance monotonically along the sleeve, so the
+    interior skeleton nodes (cluster ids >= n) are dropped and only the chord midpoints and the
+    side's two end nodes are kept; boundary samples (ids < n) are all kept.
+    """
+    points = [geoms[0][0]]
+    for k, g in enumerate(geoms):
+        points.extend(g[1:-1])
+        if k == len(geoms) - 1 or nodes[k + 1] < n:
+            points.append(g[-1])
+    return np.asarray(points, dtype=float)
+
+
 def _quad_ok(poly):
     if _area(poly) <= 0:
         return False
@@ -115,7 +133,10 @@ def build_layout(dec, bnd_dir, point_features, diag) -> CoarseLayout:
     halfedges = []
     for a, b in bnd_dir:
         c, i = sk.bnd_owner[min(a, b) * n + max(a, b)]
-        halfedges.append((a, b, find(F(("B", c, i))), None))
+        # the input loop between the two samples (its own vertices kept), ends exactly at them
+        g = dec.curves[int(smp.loop[a])].between(float(smp.s[a]), float(smp.s[b]))
+        g[0], g[-1] = P[a], P[b]
+        halfedges.append((a, b, find(F(("B", c, i))), g))
     for key in sorted(dec.live_chords):
         c, u = sk.chord[key]
         i = sk.eside[c].index(key)
@@ -215,7 +236,7 @@ def build_layout(dec, bnd_dir, point_features, diag) -> CoarseLayout:
                     plist.append((sides[rt], False))
                 else:
                     sides[t] = len(side_geom)
-                    side_geom.append(_join(cur_geoms))
+                    side_geom.append(_side_polyline(cur_geoms, t, n))
                     side_ends.append((vid[t[0]], vid[t[-1]]))
                     on_b = all(p < n for p in t)
                     side_loop.append(int(smp.loop[t[0]]) if on_b else -1)

@@ -1,0 +1,59 @@
+"""Fold-free smoothing of planar quad meshes (Garanzha et al. 2021 barrier energy)."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import check_grad
+
+from fabpanel.panelize.untangle import _corners, _energy_and_gradient, corner_determinants, untangle
+
+
+def _grid(n: int):
+    ij = np.stack(np.meshgrid(np.arange(n + 1.0), np.arange(n + 1.0), indexing="ij"), -1)
+    ids = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
+    quads = np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], -1).reshape(-1, 4)
+    movable = np.zeros((n + 1) ** 2, dtype=bool)
+    movable[ids[1:-1, 1:-1].ravel()] = True
+    return ij.reshape(-1, 2), quads, movable
+
+
+def test_gradient_matches_finite_differences():
+    points, quads, movable = _grid(3)
+    points[movable] += np.random.default_rng(0).normal(0.0, 0.4, (movable.sum(), 2))
+    args = (points, movable, _corners(quads), 1.3, 0.1)
+    x = points[movable].ravel()
+    error = check_grad(lambda v: _energy_and_gradient(v, *args)[0],
+                       lambda v: _energy_and_gradient(v, *args)[1], x)
+    assert error < 1e-4 * np.linalg.norm(_energy_and_gradient(x, *args)[1])
+
+
+def test_badly_folded_grid_becomes_the_regular_grid():
+    points, quads, movable = _grid(6)
+    tangled = points.copy()
+    rng = np.random.default_rng(1)
+    # throw the interior vertices about: many corners folded
+    tangled[movable] = rng.uniform(0.0, 6.0, (movable.sum(), 2))
+    assert (corner_determinants(tangled, quads) <= 0).sum() > 20
+    out, info = untangle(tangled, quads, movable)
+    assert info["folded_before"] > 20 and info["folded_after"] == 0
+    assert (corner_determinants(out, quads) > 0).all()
+    np.testing.assert_array_equal(out[~movable], points[~movable])       # boundary kept
+    np.testing.assert_allclose(out, points, atol=1e-3)                  # the unique optimum
+
+
+def test_non_convex_domain_is_untangled():
+    # an L-shaped block of quads whose interior starts collapsed onto one point
+    points, quads, movable = _grid(6)
+    keep = ~((points[quads].mean(axis=1)[:, 0] > 3) & (points[quads].mean(axis=1)[:, 1] > 3))
+    quads = quads[keep]
+    used = np.unique(quads)
+    sides = np.sort(np.stack([quads, np.roll(quads, -1, axis=1)], 2).reshape(-1, 2), axis=1)
+    edges, counts = np.unique(sides, axis=0, return_counts=True)
+    boundary = np.zeros(len(points), dtype=bool)
+    boundary[edges[counts == 1].ravel()] = True
+    movable = np.isin(np.arange(len(points)), used) & ~boundary
+    tangled = points.copy()
+    tangled[movable] = [4.5, 4.5]                        # outside the domain, in the notch
+    out, info = untangle(tangled, quads, movable)
+    assert info["folded_after"] == 0
+    assert (corner_determinants(out, quads) > 0).all()
