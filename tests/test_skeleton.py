@@ -228,3 +228,27 @@ def test_point_features_only_matched_when_on_a_vertex(caplog):
     assert L.info["point_features_matched"] == 1
     assert L.info["point_features_ignored"] == 1
     assert "not supported" in caplog.text
+
+
+@pytest.mark.parametrize("name", ["L", "rect_square_hole", "rect_3_holes", "pentagon"])
+def test_halved_boundary_sampling_gives_the_same_layout(name):
+    loops = FIXTURES[name]
+    points = np.vstack(loops)
+    diameter = float(np.linalg.norm(points.max(0) - points.min(0)))
+    ref = signature(skeleton_layout(loops, sample_spacing=0.02 * diameter))
+    assert signature(skeleton_layout(loops, sample_spacing=0.01 * diameter)) == ref
+
+
+def test_rounded_corners_become_corners_at_any_sampling():
+    # a 16 x 12 rectangle with 2.5 m rounded corners and an off-centre opening (the one-opening
+    # roof): the rounded corners must anchor branches, not vanish as noise (else: polar grid)
+    t = np.linspace(0, np.pi / 2, 12, endpoint=False)
+    arc = np.stack([np.cos(t), np.sin(t)], 1) * 2.5
+    outer = np.vstack([arc + [5.5, 3.5], arc @ [[0, 1], [-1, 0]] + [-5.5, 3.5],
+                       -arc + [-5.5, -3.5], arc @ [[0, -1], [1, 0]] + [5.5, -3.5]])
+    s = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    hole = np.stack([2 + 1.5 * np.cos(s), 1 + np.sin(s)], 1)[::-1]
+    for spacing in (0.1, 0.2, 0.4):
+        layout_ = skeleton_layout([outer, hole], corner_angle=30.0, sample_spacing=spacing)
+        assert layout_.info["rounded_corners"] >= 3
+        assert len(layout_.singular) >= 3

@@ -145,3 +145,52 @@ def test_bad_panel_sizes_are_refused(case, size, words):
     _, surface, query, job, _, _ = case
     with pytest.raises(GeometryError, match=words):
         panelize(surface, job.replace(panelize={"panel_size": size}), query)
+
+
+def _write_obj(path, vertices, triangles):
+    lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in vertices]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in triangles]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _grid_triangles(nu, nv):
+    ids = np.arange((nu + 1) * (nv + 1)).reshape(nu + 1, nv + 1)
+    a, b, c, d = ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]
+    return np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3),
+                           np.stack([a, c, d], -1).reshape(-1, 3)])
+
+
+def _export(tmp_path, obj, size="1 m"):
+    from click.testing import CliRunner
+
+    from fabpanel.cli import main
+
+    job = tmp_path / "job.toml"
+    job.write_text(f'[input]\npath = "{obj.name}"\nunits = "m"\n\n'
+                   f'[panelize]\nmethod = "skeleton"\npanel_size = "{size}"\n')
+    out = tmp_path / "out"
+    result = CliRunner().invoke(main, ["export", str(job), "--out", str(out), "--until",
+                                       "panelize"])
+    return result, out
+
+
+def test_cli_refuses_a_surface_whose_projection_overlaps(tmp_path):
+    # a tube cut open along 60 degrees: 300 degrees of it cover the projection plane twice
+    t, z = np.meshgrid(np.radians(np.linspace(30, 330, 41)), np.linspace(0, 6, 9), indexing="ij")
+    vertices = np.stack([3 * np.cos(t), 3 * np.sin(t), z], -1).reshape(-1, 3)
+    obj = _write_obj(tmp_path / "tube.obj", vertices, _grid_triangles(40, 8))
+    result, out = _export(tmp_path, obj)
+    assert result.exit_code == 2, result.output
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "folds over itself" in lines[0] and "grid" in lines[0]
+    assert not out.exists()
+
+
+def test_cli_refuses_a_panel_size_larger_than_the_surface(tmp_path):
+    x, y = np.meshgrid(np.linspace(0, 4, 9), np.linspace(0, 3, 7), indexing="ij")
+    vertices = np.stack([x, y, 0.1 * x * y], -1).reshape(-1, 3)
+    obj = _write_obj(tmp_path / "small.obj", vertices, _grid_triangles(8, 6))
+    result, out = _export(tmp_path, obj, size="20 m")
+    assert result.exit_code == 2, result.output
+    assert "larger than the surface" in result.stderr and not out.exists()

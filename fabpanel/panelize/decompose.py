@@ -61,6 +61,9 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
     loops3d = [surface.vertices[loop] for loop in surface.boundary_loops]
     frame = plane_frame(np.concatenate(loops3d), outward_normal(surface))
     loops2d = [to_plane(loop, frame) for loop in loops3d]
+    # refuse a surface that folds over in the projection before reading its projected loops
+    # (their crossings would otherwise be reported as a bad boundary)
+    lift(loops2d[0][:1], surface, frame, query)
     features = None
     if settings.singular_points:
         scale = length_scale(job.input.units or "mm")

@@ -324,7 +324,7 @@ def densify(layout: CoarseLayout, counts: np.ndarray | int,
             "vertices": int(len(vertices)), "quads": int(len(quads)),
             "inverted_quads": int((areas <= 0).sum())}
     if info["inverted_quads"]:
-        log.warning("densify: %d dense quads are inverted in the plane (folded Coons patches)",
+        log.info("densify: %d dense quads are inverted in the plane (folded Coons patches)",
                     info["inverted_quads"])
     return DenseMesh(vertices, quads, np.concatenate(loop), np.concatenate(fixed),
                      np.concatenate(face_of_vertex), np.concatenate(face_of_quad),
