@@ -254,6 +254,10 @@ def _write_outputs(result: Result, folder: Path, progress: Progress,
 
         (folder / "model").mkdir(exist_ok=True)
         write_layout_obj(result.layout, folder / "model" / "panels.obj")
+    if result.developed is not None:
+        from .develop.export import write_developed_obj
+
+        write_developed_obj(result.developed, folder / "model" / "developed.obj")
     if result.model is not None:
         from .model import write_glb, write_panel_steps, write_step_assembly
 

@@ -1,10 +1,11 @@
-"""Analytic fixtures: panels on cylinders whose true geometry is known in closed form."""
+"""Analytic fixtures: panels on cylinders and a sphere cap whose geometry is known in closed form."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from fabpanel import load_surface
 from fabpanel.data import DevelopedPanels, PanelLayout
 from fabpanel.develop.sides import side_planes
 
@@ -55,3 +56,18 @@ def cylinder_developed(radius: float = 4000.0, length: float = 2400.0, n_arc: in
 @pytest.fixture
 def cylinder_panels() -> DevelopedPanels:
     return cylinder_developed()
+
+
+def sphere_cap(tmp_path, n=24, half=3.0, radius=5.0):
+    """A spherical cap patch (radius 5 m) over a 6 x 6 m square, mesh in metres."""
+    x, y = np.meshgrid(np.linspace(-half, half, n + 1), np.linspace(-half, half, n + 1),
+                       indexing="ij")
+    z = np.sqrt(radius ** 2 - x ** 2 - y ** 2)
+    vertices = np.stack([x, y, z], axis=-1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    v = (i * (n + 1) + j).ravel()
+    quads = np.stack([v, v + n + 1, v + n + 2, v + 1], axis=1)
+    path = tmp_path / "cap.obj"
+    path.write_text("\n".join(f"v {a} {b} {c}" for a, b, c in vertices) + "\n"
+                    + "\n".join("f " + " ".join(str(q + 1) for q in quad) for quad in quads))
+    return load_surface(path, "m")

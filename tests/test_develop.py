@@ -9,6 +9,7 @@ import pytest
 
 from fabpanel import Job, develop, load_surface, panelize
 from fabpanel.develop.sides import panel_sides
+from conftest import sphere_cap
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -52,18 +53,7 @@ def test_rib_planes_point_into_the_panel(vault):
 
 
 def test_doubly_curved_panels_are_not_developable(tmp_path):
-    # a spherical cap patch (radius 5 m) over a 6 x 6 m square, as a mesh in metres
-    n = 30
-    x, y = np.meshgrid(np.linspace(-3, 3, n + 1), np.linspace(-3, 3, n + 1), indexing="ij")
-    z = np.sqrt(25.0 - x ** 2 - y ** 2)
-    vertices = np.stack([x, y, z], axis=-1).reshape(-1, 3)
-    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    v = (i * (n + 1) + j).ravel()
-    quads = np.stack([v, v + n + 1, v + n + 2, v + 1], axis=1)
-    path = tmp_path / "cap.obj"
-    path.write_text("\n".join(f"v {a} {b} {c}" for a, b, c in vertices) + "\n"
-                    + "\n".join("f " + " ".join(str(q + 1) for q in quad) for quad in quads))
-    surface = load_surface(path, "m")
+    surface = sphere_cap(tmp_path, n=30)
     job = Job.from_dict({"panelize": {"grid_u": 3, "grid_v": 3}})
     developed = develop(panelize(surface, job), surface, job)
     assert developed.classes.count("not-developable") == 9

@@ -55,7 +55,7 @@ def vault_run(tmp_path_factory, small_vault):
 def test_output_contract(vault_run):
     out = vault_run.out_dir
     for name in ("manifest.json", "bom.csv", "model/assembly.step", "model/preview.glb",
-                 "model/panels.obj",
+                 "model/panels.obj", "model/developed.obj",
                  "report/summary.json", "report/index.html"):
         assert (out / name).is_file(), name
     manifest = json.loads((out / "manifest.json").read_text())
@@ -165,6 +165,11 @@ def test_until_stops_after_a_stage_and_writes_what_ran(tmp_path):
     assert len(manifest["panels"]) == GRID_U * GRID_V and manifest["parts"] == []
     assert not (tmp_path / "out" / "model" / "assembly.step").exists()
     assert (tmp_path / "out" / "model" / "panels.obj").is_file()
+    # the developed sample grids: one group per panel, k x k vertices each
+    text = (tmp_path / "out" / "model" / "developed.obj").read_text()
+    k = result.developed.samples.shape[1]
+    assert text.count("\ng P") == GRID_U * GRID_V
+    assert text.count("\nv ") == GRID_U * GRID_V * k * k
 
 
 def test_same_job_same_output(tmp_path):

@@ -27,6 +27,11 @@ def _stats(values: np.ndarray, digits: int = 4) -> dict:
             "max": round(float(values.max()), digits)}
 
 
+def gauss_image_areas(samples: np.ndarray) -> np.ndarray:
+    """(m,) float: sum of absolute angle defects of each panel grid (discrete integral of |K|)."""
+    return np.abs(angle_defects(samples)).reshape(len(samples), -1).sum(axis=1)
+
+
 def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normals: np.ndarray,
                          plane_residuals: np.ndarray, query: SurfaceQuery, job: Job):
     """Class, smallest bending radius, metrics and issues of every panel.
@@ -35,7 +40,7 @@ def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normal
     """
     m, k = samples.shape[:2]
     strain = np.array([flatten_grid(grid)[1] for grid in samples])
-    gauss_area = np.abs(angle_defects(samples)).reshape(m, -1).sum(axis=1)
+    gauss_area = gauss_image_areas(samples)
     _, _, flatness = bestfit_planes(samples.reshape(m, -1, 3))
     radius = np.minimum(circumradii(samples).reshape(m, -1).min(axis=1),
                         circumradii(samples.transpose(0, 2, 1, 3)).reshape(m, -1).min(axis=1))

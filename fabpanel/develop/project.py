@@ -24,9 +24,16 @@ log = logging.getLogger(__name__)
 
 def develop(layout: PanelLayout, surface: Surface, job: Job,
             query: SurfaceQuery | None = None) -> DevelopedPanels:
-    """Give every panel of ``layout`` its sample grid, normals, rib planes and class."""
+    """Give every panel of ``layout`` its sample grid on the design surface, and measure it."""
     query = query or SurfaceQuery(surface)
-    k = job.develop.samples
+    samples, normals = sample_panels(layout, query, job.develop.samples)
+    return developed_panels(layout, samples, normals, query, job, "project")
+
+
+def sample_panels(layout: PanelLayout, query: SurfaceQuery, k: int) -> tuple[np.ndarray,
+                                                                              np.ndarray]:
+    """k x k samples and outward normals of every panel on the design surface, (m, k, k, 3)
+    each; neighbouring panels hold identical samples and normals along their shared side."""
     m = len(layout.quads)
     if layout.parameters is not None:
         uv = bilinear_grid(layout.parameters, k).reshape(-1, 2)
@@ -35,14 +42,22 @@ def develop(layout: PanelLayout, surface: Surface, job: Job,
     else:
         samples, normals = _surface_patches(layout, query, k)
     samples, normals = _pin_corners(layout, samples, normals)
-    samples, normals = _share_sides(layout, samples, normals)
+    return _share_sides(layout, samples, normals)
+
+
+def developed_panels(layout: PanelLayout, samples: np.ndarray, normals: np.ndarray,
+                     query: SurfaceQuery, job: Job, method: str, extra_metrics: dict | None = None,
+                     extra_issues: tuple = ()) -> DevelopedPanels:
+    """Rib planes, classes and measures of final panel grids, as :class:`DevelopedPanels`."""
     planes, plane_residuals = side_planes(samples, normals, job.sandwich.total_depth)
     classes, radius, metrics, issues = classify_and_measure(
         layout.panel_ids, samples, normals, plane_residuals, query, job)
-    log.info("develop (project): %s", {c: classes.count(c) for c in set(classes)})
+    metrics["method"] = method
+    metrics.update(extra_metrics or {})
+    log.info("develop (%s): %s", method, {c: classes.count(c) for c in set(classes)})
     return DevelopedPanels(layout=layout, samples=samples, normals=normals, side_planes=planes,
-                           classes=classes, bending_radius=radius, method="project",
-                           metrics=metrics, issues=issues)
+                           classes=classes, bending_radius=radius, method=method,
+                           metrics=metrics, issues=tuple(extra_issues) + issues)
 
 
 def surface_sides(starts: np.ndarray, ends: np.ndarray, query: SurfaceQuery, count: int,

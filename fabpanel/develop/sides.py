@@ -41,3 +41,45 @@ def side_planes(samples: np.ndarray, normals: np.ndarray, depth: float) -> tuple
     offsets[inward] *= -1
     planes = np.concatenate([plane_normals, offsets[..., None]], axis=2)
     return planes, residuals.reshape(m, 4)
+
+
+def neighbour_sides(layout) -> tuple[np.ndarray, np.ndarray]:
+    """The panel across every side and that panel's side index: ``(neighbour (m, 4),
+    side (m, 4))``, both -1 on the boundary. The neighbour runs the shared side backwards."""
+    quads = layout.quads
+    neighbour = layout.side_neighbours
+    other_side = np.full(neighbour.shape, -1, dtype=np.int64)
+    shared = neighbour >= 0
+    start = quads
+    end = np.roll(quads, -1, axis=1)
+    for t in range(4):
+        q = np.where(shared, neighbour, 0)
+        match = shared & (quads[q, t] == end) & (quads[q, (t + 1) % 4] == start)
+        other_side[match] = t
+    return neighbour, other_side
+
+
+def across_sides(layout, grids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each panel side's samples and the neighbour's samples of the same side, aligned.
+
+    grids : (m, k, k, c). Returns ``own (m, 4, k, c)`` and ``theirs (m, 4, k, c)`` (NaN on the
+    boundary), point for point along the side.
+    """
+    neighbour, other_side = neighbour_sides(layout)
+    own = panel_sides(grids)
+    theirs = np.full_like(own, np.nan)
+    shared = neighbour >= 0
+    theirs[shared] = own[neighbour[shared], other_side[shared]][:, ::-1]
+    return own, theirs
+
+
+def side_gaps_and_kinks(layout, samples: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray,
+                                                                                  np.ndarray]:
+    """Largest gap (mm) and kink angle (degrees) between every panel side and its neighbour's
+    copy of it; (m, 4) each, 0 on the boundary."""
+    own, theirs = across_sides(layout, samples)
+    gaps = np.nan_to_num(np.linalg.norm(own - theirs, axis=-1).max(axis=-1))
+    own_n, theirs_n = across_sides(layout, normals)
+    cosine = np.clip((own_n * theirs_n).sum(-1), -1.0, 1.0)
+    kinks = np.nan_to_num(np.degrees(np.arccos(cosine)).max(axis=-1))
+    return gaps, kinks

@@ -1,0 +1,126 @@
+"""Rationalisation: the global developability optimisation and the loft baseline."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fabpanel import Job, load_surface, panelize
+from fabpanel.develop import develop
+from fabpanel.develop.loft import ruled_grids
+from fabpanel.develop.optimise import GlobalOptimiser, grid_normals, sample_mesh
+from fabpanel.develop.project import sample_panels
+from fabpanel.develop.sides import across_sides
+from fabpanel.surface import SurfaceQuery
+from conftest import sphere_cap as _cap
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+@pytest.fixture(scope="module")
+def vault():
+    surface = load_surface(EXAMPLES / "barrel-vault.step")
+    job = Job.from_dict({"panelize": {"grid_u": 4, "grid_v": 3}})
+    return surface, job, panelize(surface, job)
+
+
+def test_sample_mesh_shares_side_samples_by_topology(vault):
+    surface, job, layout = vault
+    samples, _ = sample_panels(layout, SurfaceQuery(surface), 5)
+    mesh = sample_mesh(layout, samples)
+    own, theirs = across_sides(layout, mesh.ids[..., None].astype(float))
+    shared = layout.side_neighbours >= 0
+    np.testing.assert_array_equal(own[shared], theirs[shared])
+    # 12 panels, 20 vertices, 31 edges: 20 + 31 * 3 + 12 * 9 distinct samples
+    assert len(mesh.points) == 20 + 31 * 3 + 12 * 9
+    np.testing.assert_array_equal(mesh.points[mesh.ids], samples)
+    # boundary samples: the 14 boundary edges' samples (14 * 4 distinct)
+    assert mesh.boundary.sum() == 14 * 4
+
+
+def test_jacobian_matches_finite_differences(tmp_path):
+    surface = _cap(tmp_path, n=8)
+    query = SurfaceQuery(surface)
+    layout = panelize(surface, Job.from_dict({"panelize": {"grid_u": 2, "grid_v": 2}}), query)
+    samples, normals = sample_panels(layout, query, 4)
+    solver = GlobalOptimiser(layout, samples, normals, query, closeness=0.1, fairness=0.1,
+                             rib=1.0, depth=150.0)
+    rng = np.random.default_rng(0)
+    z = solver.z + rng.normal(0, 1e-3, solver.z.shape)
+    x, *_ = solver.unpack(z)
+    foot, foot_normal = solver._foot_points(x)
+    residual, jacobian = solver.system(z, foot, foot_normal).matrices(solver.size)
+    step = 1e-7
+    for column in rng.choice(solver.size, 25, replace=False):
+        moved = z.copy()
+        moved[column] += step
+        again, _ = solver.system(moved, foot, foot_normal).matrices(solver.size)
+        numeric = (again - residual) / step
+        analytic = jacobian[:, column].toarray().ravel()
+        assert np.abs(numeric - analytic).max() < 1e-4 * max(1.0, np.abs(analytic).max())
+
+
+def test_global_keeps_a_cylinder_exactly(vault):
+    surface, job, layout = vault
+    developed = develop(layout, surface, job.replace(develop={"method": "global"}))
+    metrics = developed.metrics
+    assert metrics["solver"]["converged"]
+    assert metrics["unroll_strain"]["max"] < 1e-5
+    assert metrics["deviation_mm"]["max"] < 0.05
+    assert metrics["gap_mm_max"] == 0.0
+    assert metrics["kink_deg"]["max"] < 0.05
+    assert metrics["rib_normal_angle_deg_max"] < 0.05
+    np.testing.assert_allclose(np.hypot(developed.samples[..., 1], developed.samples[..., 2]),
+                               4000.0, atol=0.05)
+
+
+def test_global_keeps_neighbours_joined_on_a_sphere_cap(tmp_path):
+    surface = _cap(tmp_path)
+    job = Job.from_dict({"panelize": {"grid_u": 3, "grid_v": 3},
+                         "develop": {"method": "global", "max_iterations": 15}})
+    developed = develop(panelize(surface, job), surface, job)
+    assert developed.metrics["gap_mm_max"] == 0.0
+    own, theirs = across_sides(developed.layout, developed.samples)
+    shared = developed.layout.side_neighbours >= 0
+    np.testing.assert_array_equal(own[shared], theirs[shared])
+    # orientation kept: every normal on the outer side
+    assert (np.einsum("mijc,mijc->mij", developed.normals,
+                      developed.samples / np.linalg.norm(developed.samples, axis=-1,
+                                                         keepdims=True)) > 0.9).all()
+
+
+def test_grid_normals_of_a_cylinder_are_radial():
+    t = np.linspace(0.1, 0.6, 7)
+    x = np.linspace(0, 1000, 7)
+    tt, xx = np.meshgrid(t, x, indexing="ij")
+    grid = np.stack([xx, 4000 * np.cos(tt), 4000 * np.sin(tt)], -1)[None]
+    reference = np.stack([np.zeros_like(tt), np.cos(tt), np.sin(tt)], -1)[None]
+    normals = grid_normals(grid, reference)
+    np.testing.assert_allclose(normals, reference, atol=5e-4)   # one-sided rule at the ends: O(h^2)
+    np.testing.assert_allclose(normals[:, 1:-1], reference[:, 1:-1], atol=1e-5)
+
+
+def test_loft_is_exact_on_a_cylinder_and_leaves_gaps_on_a_sphere(vault, tmp_path):
+    surface, job, layout = vault
+    lofted = develop(layout, surface, job.replace(develop={"method": "loft"}))
+    assert lofted.metrics["deviation_mm"]["max"] < 0.05
+    assert lofted.metrics["gap_mm_max"] < 1e-6
+    cap = _cap(tmp_path)
+    cap_job = Job.from_dict({"panelize": {"grid_u": 3, "grid_v": 3},
+                             "develop": {"method": "loft"}})
+    lofted = develop(panelize(cap, cap_job), cap, cap_job)
+    # the rails of one panel are the straight end rulings of its neighbour: they part
+    assert lofted.metrics["gap_mm_max"] > 10.0
+    assert lofted.metrics["deviation_mm"]["mean"] > 1.0
+
+
+def test_ruled_grids_interpolate_between_opposite_sides():
+    rng = np.random.default_rng(2)
+    grid = rng.normal(size=(2, 5, 5, 3))
+    along_j, along_i = ruled_grids(grid)
+    np.testing.assert_array_equal(along_j[:, :, 0], grid[:, :, 0])
+    np.testing.assert_array_equal(along_j[:, :, -1], grid[:, :, -1])
+    np.testing.assert_array_equal(along_i[:, 0], grid[:, 0])
+    np.testing.assert_allclose(along_i[:, 2], 0.5 * (grid[:, 0] + grid[:, -1]))
