@@ -108,7 +108,7 @@ class DevelopSection(_Section):
     #: panels move further to become developable; higher keeps the shape
     closeness: float = Field(default=0.05, gt=0, le=100)
     #: global: weight of fairness (second differences along the sample grid lines)
-    fairness: float = Field(default=0.02, ge=0, le=100)
+    fairness: float = Field(default=0.1, ge=0, le=100)
     #: global: weight of rib planarity (side samples and normals in one plane per side)
     rib_planarity: float = Field(default=1.0, ge=0, le=100)
     #: global: Levenberg-Marquardt iterations at most

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import sphere_cap
 
 from fabpanel import Job, develop, load_surface, panelize
 from fabpanel.develop.sides import panel_sides
-from conftest import sphere_cap
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

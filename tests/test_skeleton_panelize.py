@@ -6,6 +6,7 @@ from collections import Counter
 
 import numpy as np
 import pytest
+from test_examples import shapes
 
 from fabpanel import Job
 from fabpanel.errors import GeometryError
@@ -13,7 +14,6 @@ from fabpanel.geom.polygon import closest_on_polylines
 from fabpanel.panelize import choose_method, panelize
 from fabpanel.panelize.quality import corner_angles, vertex_valences
 from fabpanel.surface import SurfaceQuery, load_surface
-from test_examples import shapes
 
 #: coarse example meshes (fast) and the panel size used on them
 CASES = {

@@ -39,7 +39,7 @@ def develop_loft(layout: PanelLayout, surface: Surface, job: Job,
     from .project import developed_panels, sample_panels
 
     design, design_normals = sample_panels(layout, query, job.develop.samples)
-    m, k = design.shape[:2]
+    m = len(design)
     candidates = ruled_grids(design)
     mean_distance = []
     for grid in candidates:

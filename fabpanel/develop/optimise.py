@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import lsmr
+from scipy.sparse.linalg import lsmr, spsolve
 
 from ..data import PanelLayout
 from ..errors import SolverError
@@ -71,8 +71,11 @@ RELINEARISE = 2e-3
 #: residuals this small (root mean square, dimensionless: 1e-5 is 0.01 mm on a 1 m panel) are
 #: solved: stop
 NEGLIGIBLE_RMS = 1e-5
-#: inner solve of every LM step (an inexact Gauss-Newton step is enough)
-LSMR_TOLERANCE, LSMR_ITERATIONS = 1e-8, 5000
+#: inner solve of every LM step: a sparse direct solve of the normal equations up to this many
+#: unknowns (fast while the fill-in is small), LSMR beyond (an inexact Gauss-Newton step is
+#: enough there)
+DIRECT_LIMIT = 30_000
+LSMR_TOLERANCE, LSMR_ITERATIONS = 1e-7, 3000
 #: LM damping: start, and the factors applied after a rejected / accepted step
 DAMPING_START, DAMPING_UP, DAMPING_DOWN = 1e-3, 8.0, 3.0
 
@@ -213,7 +216,13 @@ class GlobalOptimiser:
         self.weights = {"closeness": closeness, "fairness": fairness, "rib": rib,
                         "defect": DEFECT_WEIGHT}
         from ..geom.flatten import grid_triangles
-        self._triangles = grid_triangles(k, k)
+        # both triangulations of the grid: the unroll strain measures both diagonals of every
+        # cell, so the grid must be flat across either
+        first = grid_triangles(k, k)
+        v00, v10, v11, v01 = first[: len(first) // 2, 0], first[: len(first) // 2, 1], \
+            first[: len(first) // 2, 2], first[len(first) // 2:, 2]
+        self._triangulations = (first, np.concatenate([np.stack([v00, v10, v01], 1),
+                                                       np.stack([v10, v11, v01], 1)]))
         interior = np.full((k, k), -1, dtype=np.int64)
         interior[1:-1, 1:-1] = np.arange((k - 2) ** 2).reshape(k - 2, k - 2)
         self._interior_row = interior.ravel()
@@ -280,7 +289,7 @@ class GlobalOptimiser:
         x, n, h, d, g, offsets = self.unpack(z)
         ids = self.mesh.ids
         system = _System()
-        xcol = lambda pid: 3 * pid[..., None] + np.arange(3)            # noqa: E731
+        xcol = lambda pid: 3 * pid[..., None] + np.arange(3)
         ncol = (self.off_n + np.arange(3 * m * k * k)).reshape(m, k, k, 3)
         # normal consistency: every cell normal is perpendicular to both cell diagonals (all
         # four corners take part, so no odd-even zig-zag of the samples goes unseen)
@@ -367,10 +376,13 @@ class GlobalOptimiser:
         return system
 
     def _angle_defects(self, system: _System, x: np.ndarray) -> None:
-        """Intrinsic flatness: the angles around every interior sample of a panel's triangulated
-        grid (the one the unroll strain is measured on) sum to 2 pi."""
+        """Intrinsic flatness: the angles around every interior sample of a panel's grid sum to
+        2 pi, in both triangulations of the grid (the unroll strain measures both diagonals)."""
+        for tris in self._triangulations:
+            self._angle_defects_of(system, x, tris)
+
+    def _angle_defects_of(self, system: _System, x: np.ndarray, tris: np.ndarray) -> None:
         m, k = self.m, self.k
-        tris = self._triangles                                            # (t, 3) local
         corners = self.mesh.ids.reshape(m, k * k)[:, tris]                # (m, t, 3)
         rows_local = self._interior_row[tris]                             # (t, 3), -1 outside
         angle_sum = np.zeros((m, (k - 2) ** 2))
@@ -427,10 +439,19 @@ class GlobalOptimiser:
             # Tikhonov term that LSMR takes directly, and the iterative solve is well conditioned
             norms = np.sqrt(np.asarray(jacobian.multiply(jacobian).sum(axis=0)).ravel()) + 1e-12
             scaled = (jacobian @ sp.diags(1.0 / norms)).tocsr()
+            direct = self.size <= DIRECT_LIMIT
+            if direct:
+                normal_matrix = (scaled.T @ scaled).tocsc()
+                rhs = -(scaled.T @ residual)
             accepted = False
             for _ in range(12):
-                solution = lsmr(scaled, -residual, damp=np.sqrt(damping), atol=LSMR_TOLERANCE,
-                                btol=LSMR_TOLERANCE, maxiter=LSMR_ITERATIONS)[0]
+                if direct:
+                    solution = spsolve(normal_matrix + damping * sp.identity(self.size,
+                                                                             format="csc"), rhs)
+                else:
+                    solution = lsmr(scaled, -residual, damp=np.sqrt(damping),
+                                    atol=LSMR_TOLERANCE, btol=LSMR_TOLERANCE,
+                                    maxiter=LSMR_ITERATIONS)[0]
                 step = solution / norms
                 if not np.all(np.isfinite(step)):
                     raise SolverError("the developability solver produced non-finite values; "

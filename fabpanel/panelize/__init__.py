@@ -48,4 +48,4 @@ def panelize(surface: Surface, job: Job, query: SurfaceQuery | None = None) -> P
     return skeleton_panelize(surface, job, query)
 
 
-__all__ = ["panelize", "choose_method"]
+__all__ = ["choose_method", "panelize"]

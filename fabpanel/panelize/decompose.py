@@ -118,7 +118,7 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
                          panel_ids=tuple(f"P{i + 1:03d}" for i in range(len(quads))),
                          method="skeleton")
     metrics, found = layout_metrics(layout, query, target, job.cutting, loops3d)
-    metrics["coarse"] = {"vertices": int(len(coarse.vertices)), "quads": int(len(coarse.quads)),
+    metrics["coarse"] = {"vertices": len(coarse.vertices), "quads": len(coarse.quads),
                          **coarse.info}
     metrics["plate_rounds"] = round_
     metrics["relaxation"] = smoothing

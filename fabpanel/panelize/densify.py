@@ -18,8 +18,9 @@ kept as an alternative (``[panelize] density = "catmull-clark"``).
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Callable, Mapping, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -321,7 +322,7 @@ def densify(layout: CoarseLayout, counts: np.ndarray | int,
     areas = signed_quad_areas(vertices, quads)
     info = {"strips": len(strips), "strip_counts": [int(c) for c in counts],
             "closed_strips": int(sum(s.closed for s in strips)),
-            "vertices": int(len(vertices)), "quads": int(len(quads)),
+            "vertices": len(vertices), "quads": len(quads),
             "inverted_quads": int((areas <= 0).sum())}
     if info["inverted_quads"]:
         log.info("densify: %d dense quads are inverted in the plane (folded Coons patches)",
@@ -437,7 +438,7 @@ def catmull_clark(vertices, quads=None, levels: int = 1, *, loop_of_vertex=None,
             v = _snap_to_loops(v, lv, fx, layout.loops)
     face_of_vertex = np.full(len(v), -1, dtype=np.int64)
     face_of_vertex[q[::-1].ravel()] = np.repeat(face_of_quad[::-1], 4)
-    info = {"levels": int(levels), "vertices": int(len(v)), "quads": int(len(q))}
+    info = {"levels": int(levels), "vertices": len(v), "quads": len(q)}
     if v.shape[1] == 2:
         info["inverted_quads"] = int((signed_quad_areas(v, q) <= 0).sum())
     return DenseMesh(v, q, lv, fx, face_of_vertex, face_of_quad,
