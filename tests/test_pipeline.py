@@ -215,3 +215,17 @@ def test_mesh_input_runs_end_to_end(tmp_path):
     # the mesh's 96-segment arc lies up to its sagitta (0.54 mm) inside the true cylinder
     assert result.developed.metrics["deviation_mm"]["max"] < 0.6
     assert result.model.metrics["all_valid"]
+
+
+def test_global_develop_runs_end_to_end(tmp_path):
+    # the optimiser's panels feed the build and the cut like the projected ones: a cylinder
+    # stays a cylinder, the sheets unroll to the 3D lengths, ribs stay planar
+    result = fp.run(_job(develop={"method": "global"}), out_dir=tmp_path / "out", until="cut",
+                    jobs=2)
+    metrics = result.developed.metrics
+    assert metrics["method"] == "global" and metrics["solver"]["converged"]
+    assert metrics["deviation_mm"]["max"] < 0.05 and metrics["gap_mm_max"] == 0.0
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    assert manifest["job"]["develop"]["method"] == "global"
+    assert len(manifest["parts"]) == 6 * GRID_U * GRID_V
+    assert not [i for i in result.issues if i.severity == "error"]
