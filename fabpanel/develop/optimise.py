@@ -75,7 +75,7 @@ NEGLIGIBLE_RMS = 1e-5
 #: unknowns (fast while the fill-in is small), LSMR beyond (an inexact Gauss-Newton step is
 #: enough there)
 DIRECT_LIMIT = 30_000
-LSMR_TOLERANCE, LSMR_ITERATIONS = 1e-7, 3000
+LSMR_TOLERANCE, LSMR_ITERATIONS = 1e-4, 300
 #: LM damping: start, and the factors applied after a rejected / accepted step
 DAMPING_START, DAMPING_UP, DAMPING_DOWN = 1e-3, 8.0, 3.0
 
