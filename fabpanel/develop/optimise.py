@@ -215,14 +215,14 @@ class GlobalOptimiser:
         self.scale = float(np.linalg.norm(edge_vectors, axis=2).mean())
         self.weights = {"closeness": closeness, "fairness": fairness, "rib": rib,
                         "defect": DEFECT_WEIGHT}
-        from ..geom.flatten import grid_triangles
         # both triangulations of the grid: the unroll strain measures both diagonals of every
         # cell, so the grid must be flat across either
-        first = grid_triangles(k, k)
-        v00, v10, v11, v01 = first[: len(first) // 2, 0], first[: len(first) // 2, 1], \
-            first[: len(first) // 2, 2], first[len(first) // 2:, 2]
-        self._triangulations = (first, np.concatenate([np.stack([v00, v10, v01], 1),
-                                                       np.stack([v10, v11, v01], 1)]))
+        grid = np.arange(k * k).reshape(k, k)
+        v00, v10 = grid[:-1, :-1].ravel(), grid[1:, :-1].ravel()
+        v11, v01 = grid[1:, 1:].ravel(), grid[:-1, 1:].ravel()
+        self._triangulations = (
+            np.concatenate([np.stack([v00, v10, v11], 1), np.stack([v00, v11, v01], 1)]),
+            np.concatenate([np.stack([v00, v10, v01], 1), np.stack([v10, v11, v01], 1)]))
         interior = np.full((k, k), -1, dtype=np.int64)
         interior[1:-1, 1:-1] = np.arange((k - 2) ** 2).reshape(k - 2, k - 2)
         self._interior_row = interior.ravel()

@@ -48,7 +48,7 @@ def _check_size(surface: Surface, target: float) -> None:
 def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
     """Panel layout of a surface with openings or an irregular outline by the skeleton method."""
     from .densify import ARC_LENGTH_POINTS, catmull_clark, densify, refine_polyline, strip_counts
-    from .lift import lift, plane_frame, to_plane
+    from .lift import check_projection, lift, plane_frame, to_plane
     from .skeleton import skeleton_layout
     from .untangle import untangle
 
@@ -63,7 +63,7 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
     loops2d = [to_plane(loop, frame) for loop in loops3d]
     # refuse a surface that folds over in the projection before reading its projected loops
     # (their crossings would otherwise be reported as a bad boundary)
-    lift(loops2d[0][:1], surface, frame, query)
+    check_projection(surface, frame)
     features = None
     if settings.singular_points:
         scale = length_scale(job.input.units or "mm")
@@ -91,15 +91,12 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
             dense = densify(coarse, counts, arc_length=arc_length)
         vertices2d, quads, loop_of_vertex, fixed = dense
         movable = (loop_of_vertex < 0) & ~fixed
-        if settings.relax:
+        smoothing = {"folded_before": 0, "folded_after": 0, "outer_iterations": 0}
+        if settings.relax or dense.info.get("inverted_quads", 0):
             # relaxation: right angles and even panels, fold-free by construction (the barrier),
-            # boundary samples (evenly spaced on the surface) kept
+            # boundary samples (evenly spaced on the surface) kept; without relaxation the Coons
+            # patches stay as they are unless they fold
             vertices2d, smoothing = untangle(vertices2d, quads, movable)
-        elif dense.info.get("inverted_quads", 0):
-            # without relaxation the Coons patches stay as they are, unless they fold
-            vertices2d, smoothing = untangle(vertices2d, quads, movable)
-        else:
-            smoothing = {"folded_before": 0, "folded_after": 0, "outer_iterations": 0}
         if smoothing["folded_after"]:
             # never hand on a silently folded mesh
             raise GeometryError(

@@ -147,6 +147,17 @@ def _check_fold(surface: Surface, flat: np.ndarray, signed: np.ndarray) -> None:
             f"\"grid\" (four-sided surfaces) or draw a layout (method = \"layout\")")
 
 
+def check_projection(surface: Surface, frame: PlaneFrame) -> _Projector:
+    """The surface flattened onto the frame's plane (cached on ``frame`` per surface); raises
+    :class:`GeometryError` when that projection folds over itself."""
+    key = id(surface)
+    cached = frame.cache.get(key)
+    if cached is None or cached[0] is not surface:
+        cached = (surface, _Projector(surface, frame))
+        frame.cache[key] = cached
+    return cached[1]
+
+
 def lift(points2d: np.ndarray, surface: Surface, frame: PlaneFrame,
          query: SurfaceQuery) -> tuple[np.ndarray, np.ndarray]:
     """Map plane points onto the surface along the plane normal.
@@ -161,12 +172,6 @@ def lift(points2d: np.ndarray, surface: Surface, frame: PlaneFrame,
     points2d = np.asarray(points2d, dtype=float).reshape(-1, 2)
     if len(points2d) == 0:
         return np.zeros((0, 3)), np.zeros((0, 3))
-    key = id(surface)
-    cached = frame.cache.get(key)
-    if cached is None or cached[0] is not surface:
-        cached = (surface, _Projector(surface, frame))
-        frame.cache[key] = cached
-    projector = cached[1]
-    above = projector.interpolate(points2d)
+    above = check_projection(surface, frame).interpolate(points2d)
     points3d, normals, _ = query.closest(above)
     return points3d, normals
