@@ -174,15 +174,21 @@ class DevelopedPanels:
     normals : (m, k, k, 3) float
         unit normals at the samples, pointing to the outer side.
     side_planes : (m, 4, 4) float
-        plane ``(nx, ny, nz, d)`` with ``n . x = d`` of each panel side's rib: it contains the
-        side's sample polyline and the normals along it (for a developable strip both hold exactly
-        where the side is a planar curve of curvature-line type).
+        plane ``(nx, ny, nz, d)`` with ``n . x = d`` of each panel side's rib, normal into the
+        panel: it holds the side's sample polyline (the sheet edge); the normals along the side
+        meet it at one constant angle where the side is a planar curvature line (see
+        :func:`fabpanel.develop.sides.side_planes`).
     classes : tuple of PanelClass
         per panel.
     bending_radius : (m,) float
         smallest bending radius per panel, mm (``inf`` for planar panels).
     metrics : dict
         per panel and overall measures (unroll strain, deviation...), JSON-ready.
+    deviation : (m, k, k) float or None
+        distance of every sample from the design surface, mm (for the deviation map).
+    design_samples : (m, k, k, 3) float or None
+        the same panels sampled on the design surface before development (``None`` when that
+        is ``samples`` itself), for before/after figures.
     """
 
     layout: PanelLayout
@@ -194,6 +200,8 @@ class DevelopedPanels:
     method: str
     metrics: dict = field(default_factory=dict)
     issues: tuple[Issue, ...] = ()
+    deviation: np.ndarray | None = None
+    design_samples: np.ndarray | None = None
 
     @property
     def panel_ids(self) -> tuple[str, ...]:

@@ -109,8 +109,9 @@ class DevelopSection(_Section):
     closeness: float = Field(default=0.05, gt=0, le=100)
     #: global: weight of fairness (second differences along the sample grid lines)
     fairness: float = Field(default=0.1, ge=0, le=100)
-    #: global: weight of rib planarity (side samples and normals in one plane per side)
-    rib_planarity: float = Field(default=1.0, ge=0, le=100)
+    #: global: weight of rib planarity (side samples in one plane per side, the normals along it
+    #: at one angle to that plane)
+    rib_planarity: float = Field(default=10.0, ge=0, le=100)
     #: global: Levenberg-Marquardt iterations at most
     max_iterations: int = Field(default=60, ge=1, le=10000)
     #: global: stop when an iteration lowers the energy by less than this (relative)

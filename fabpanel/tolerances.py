@@ -16,6 +16,10 @@ class Tolerances:
     #: ribs and stiffeners are cut from flat plate; 0.05 mm is far below the plasma tolerance of
     #: +-0.5 mm, so the kernel's own flatness (not the cut) limits the fit between parts
     rib_planarity: float = 0.05
+    #: a sheet edge (the developed panel side) against its rib plane: the rib is planar by
+    #: construction, so this is the gap between sheet and rib, which 0.5 mm (the plasma
+    #: tolerance) lets a bolted joint pull shut
+    rib_edge: float = 0.5
     #: B-spline sheet surfaces through the sample grid; 0.05 mm keeps the fit invisible at the
     #: plasma tolerance
     sheet_fit: float = 0.05

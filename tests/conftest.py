@@ -46,7 +46,7 @@ def cylinder_developed(radius: float = 4000.0, length: float = 2400.0, n_arc: in
                          panel_ids=tuple(f"P{i + 1:03d}" for i in range(len(quads))),
                          method="analytic-cylinder")
     samples, normals = np.array(samples), np.array(normals)
-    planes, _ = side_planes(samples, normals, depth)
+    planes, *_ = side_planes(samples, normals)
     m = len(quads)
     return DevelopedPanels(layout=layout, samples=samples, normals=normals, side_planes=planes,
                            classes=("single-curved",) * m,
@@ -58,16 +58,38 @@ def cylinder_panels() -> DevelopedPanels:
     return cylinder_developed()
 
 
+def grid_surface(tmp_path, name: str, points: np.ndarray):
+    """A quad mesh through a grid of points (a, b, 3) in metres, written as OBJ and loaded."""
+    a, b = points.shape[:2]
+    i, j = np.meshgrid(np.arange(a - 1), np.arange(b - 1), indexing="ij")
+    v = (i * b + j).ravel()
+    quads = np.stack([v, v + b, v + b + 1, v + 1], axis=1)
+    path = tmp_path / f"{name}.obj"
+    path.write_text("\n".join(f"v {x} {y} {z}" for x, y, z in points.reshape(-1, 3)) + "\n"
+                    + "\n".join("f " + " ".join(str(q + 1) for q in quad) for quad in quads))
+    return load_surface(path, "m")
+
+
 def sphere_cap(tmp_path, n=24, half=3.0, radius=5.0):
     """A spherical cap patch (radius 5 m) over a 6 x 6 m square, mesh in metres."""
     x, y = np.meshgrid(np.linspace(-half, half, n + 1), np.linspace(-half, half, n + 1),
                        indexing="ij")
     z = np.sqrt(radius ** 2 - x ** 2 - y ** 2)
-    vertices = np.stack([x, y, z], axis=-1).reshape(-1, 3)
-    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    v = (i * (n + 1) + j).ravel()
-    quads = np.stack([v, v + n + 1, v + n + 2, v + 1], axis=1)
-    path = tmp_path / "cap.obj"
-    path.write_text("\n".join(f"v {a} {b} {c}" for a, b, c in vertices) + "\n"
-                    + "\n".join("f " + " ".join(str(q + 1) for q in quad) for quad in quads))
-    return load_surface(path, "m")
+    return grid_surface(tmp_path, "cap", np.stack([x, y, z], axis=-1))
+
+
+def cone_patch(tmp_path, n=60, slope_deg=30.0):
+    """A cone patch (axis z, generators 30 degrees off horizontal, apex at the origin) between
+    radii 3 and 6 m over 0.8 rad, mesh in metres."""
+    r, phi = np.meshgrid(np.linspace(3.0, 6.0, n + 1), np.linspace(-0.4, 0.4, n + 1),
+                         indexing="ij")
+    z = -r * np.tan(np.radians(slope_deg))
+    return grid_surface(tmp_path, "cone", np.stack([r * np.cos(phi), r * np.sin(phi), z], -1))
+
+
+def hypar_patch(tmp_path, n=48, half=2.4, c=8.0):
+    """A hyperbolic paraboloid z = (x^2 - y^2) / 2c over a square (K = -1/c^2 at the
+    centre), mesh in metres."""
+    x, y = np.meshgrid(np.linspace(-half, half, n + 1), np.linspace(-half, half, n + 1),
+                       indexing="ij")
+    return grid_surface(tmp_path, "hypar", np.stack([x, y, (x ** 2 - y ** 2) / (2 * c)], -1))

@@ -9,7 +9,9 @@ import pytest
 from conftest import sphere_cap
 
 from fabpanel import Job, develop, load_surface, panelize
-from fabpanel.develop.sides import panel_sides
+from fabpanel.develop.measure import advised_panel_size
+from fabpanel.develop.sides import panel_sides, side_planes
+from fabpanel.report.develop_figures import gaussian_curvature
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -58,4 +60,46 @@ def test_doubly_curved_panels_are_not_developable(tmp_path):
     developed = develop(panelize(surface, job), surface, job)
     assert developed.classes.count("not-developable") == 9
     assert developed.metrics["unroll_strain"]["min"] > 1e-3
-    assert {i.code for i in developed.issues} >= {"not-developable"}
+    assert {i.code for i in developed.issues} >= {"not-developable", "panel-size-advice"}
+    # advice: the strain of a doubly curved patch grows with its size squared, so a panel at
+    # the advised size unrolls within tolerance
+    for pid, panel in developed.metrics["per_panel"].items():
+        assert panel["advised_panel_size_mm"] < 2000.0
+    advised = min(p["advised_panel_size_mm"] for p in developed.metrics["per_panel"].values())
+    smaller = job.replace(panelize={"grid_u": None, "grid_v": None,
+                                    "panel_size": f"{advised} mm"})
+    again = develop(panelize(surface, smaller), surface, smaller)
+    assert again.metrics["unroll_strain"]["max"] <= smaller.develop.strain_tolerance
+
+
+def test_advised_panel_size_follows_the_square_law():
+    side = np.linspace(0.0, 1000.0, 5)
+    grid = np.stack([*np.meshgrid(side, side, indexing="ij"), np.zeros((5, 5))], -1)[None]
+    # four times the tolerance: half the size, less the margin
+    assert advised_panel_size(grid, np.array([4e-3]), 1e-3)[0] == 450.0
+    assert advised_panel_size(grid, np.array([1e-4]), 1e-3)[0] == 900.0
+
+
+def test_rib_planes_of_a_cone_hold_the_sides_at_a_constant_bevel():
+    # cone with generators at 30 degrees: parallels and generators are planar curvature lines;
+    # the normals stand square to the generators' planes and at 60 degrees to the parallels'
+    r = np.linspace(3000.0, 4000.0, 9)
+    t = np.linspace(0.0, 0.25, 9)
+    rr, tt = np.meshgrid(r, t, indexing="ij")
+    slope = np.tan(np.radians(30.0))
+    grid = np.stack([rr * np.cos(tt), rr * np.sin(tt), -rr * slope], -1)[None]
+    normal = np.stack([np.sin(np.radians(30.0)) * np.cos(tt), np.sin(np.radians(30.0))
+                       * np.sin(tt), np.full_like(tt, np.cos(np.radians(30.0)))], -1)[None]
+    planes, edge, angle, twist = side_planes(grid, normal)
+    assert edge.max() < 1e-6
+    assert twist.max() < 1e-6
+    np.testing.assert_allclose(angle[0], [0.0, 60.0, 0.0, 60.0], atol=1e-6)
+
+
+def test_gaussian_curvature_figures_match_analytic_shapes():
+    t = np.linspace(-0.15, 0.15, 9)
+    a, b = np.meshgrid(t, t, indexing="ij")
+    sphere = 5000.0 * np.stack([np.cos(a) * np.cos(b), np.cos(a) * np.sin(b), np.sin(a)], -1)
+    np.testing.assert_allclose(gaussian_curvature(sphere[None]), 1 / 25.0, rtol=0.01)
+    cylinder = np.stack([1000.0 * b, 4000.0 * np.cos(a), 4000.0 * np.sin(a)], -1)
+    assert np.abs(gaussian_curvature(cylinder[None])).max() < 1e-9

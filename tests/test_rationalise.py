@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import cone_patch, hypar_patch
 from conftest import sphere_cap as _cap
 
 from fabpanel import Job, load_surface, panelize
@@ -146,3 +147,34 @@ def test_global_makes_a_sphere_cap_developable_closer_than_the_loft(tmp_path):
     # the Gauss image shrinks: less total |K| than the projected panels
     assert (optimised.metrics["gauss_image_area"]["mean"]
             < 0.2 * projected.metrics["gauss_image_area"]["mean"])
+
+
+def test_global_keeps_a_cone_in_place(tmp_path):
+    cone = cone_patch(tmp_path)
+    job = Job.from_dict({"panelize": {"grid_u": 3, "grid_v": 3}, "develop": {"method": "global"}})
+    developed = develop(panelize(cone, job), cone, job)
+    metrics = developed.metrics
+    assert set(developed.classes) == {"conical"}
+    assert metrics["unroll_strain"]["max"] < 1e-5
+    assert metrics["deviation_mm"]["mean"] < 1.5
+    assert metrics["rib_plane_residual_mm_max"] < 0.5
+    # the parallels are planar curvature lines at a constant angle to their planes (the cone's
+    # 60 degree normals against horizontal arcs): a bevelled but untwisted rib
+    assert metrics["rib_bevel_twist_deg_max"] < 0.5
+    assert 55.0 < metrics["rib_normal_angle_deg_max"] < 62.0
+
+
+def test_global_makes_a_hypar_developable_closer_than_the_loft(tmp_path):
+    hypar = hypar_patch(tmp_path)
+    job = Job.from_dict({"panelize": {"grid_u": 3, "grid_v": 3}})
+    layout = panelize(hypar, job)
+    projected = develop(layout, hypar, job)
+    lofted = develop(layout, hypar, job.replace(develop={"method": "loft"}))
+    optimised = develop(layout, hypar, job.replace(develop={"method": "global"}))
+    assert projected.metrics["panels_not_developable"] == 9
+    assert optimised.metrics["panels_not_developable"] == 0
+    assert optimised.metrics["unroll_strain"]["max"] < 5e-4          # the 0.05 % target
+    assert optimised.metrics["gap_mm_max"] == 0.0
+    assert lofted.metrics["gap_mm_max"] > 10.0
+    assert optimised.metrics["deviation_mm"]["mean"] < lofted.metrics["deviation_mm"]["mean"]
+    assert optimised.metrics["rib_plane_residual_mm_max"] < 1.0

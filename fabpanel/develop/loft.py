@@ -54,7 +54,8 @@ def develop_loft(layout: PanelLayout, surface: Surface, job: Job,
              "gap_mm_mean_shared": round(float(gaps[layout.side_neighbours >= 0].mean()), 4)
              if (layout.side_neighbours >= 0).any() else 0.0,
              "kink_deg": {"max": round(float(kinks.max()), 4)}}
-    result = developed_panels(layout, samples, normals, query, job, "loft", extra)
+    result = developed_panels(layout, samples, normals, query, job, "loft", extra,
+                              design_samples=design)
     for i, pid in enumerate(layout.panel_ids):
         result.metrics["per_panel"][pid]["gap_mm"] = round(float(gaps[i].max()), 4)
     return result

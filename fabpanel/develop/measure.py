@@ -32,11 +32,54 @@ def gauss_image_areas(samples: np.ndarray) -> np.ndarray:
     return np.abs(angle_defects(samples)).reshape(len(samples), -1).sum(axis=1)
 
 
-def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normals: np.ndarray,
-                         plane_residuals: np.ndarray, query: SurfaceQuery, job: Job):
-    """Class, smallest bending radius, metrics and issues of every panel.
+#: a developable panel is conical when its normals lie on a small circle of the Gauss sphere
+#: whose plane is off the centre by at least this (the sine of the generators' angle to the
+#: circle plane: 3 degrees), the circle holds them within CONE_FIT (share of their spread), and
+#: they spread by at least CONE_SPREAD_DEG (a short arc cannot tell a small circle from a great
+#: one)
+CONE_OFFSET = np.sin(np.radians(3.0))
+CONE_FIT = 0.05
+CONE_SPREAD_DEG = 2.0
+#: advised panel sizes are rounded down to this (mm) and kept below the strain law's estimate
+#: by ADVICE_MARGIN: the unroll strain of a doubly curved patch grows with the square of its size
+ADVICE_ROUNDING = 50.0
+ADVICE_MARGIN = 0.9
 
-    samples, normals : (m, k, k, 3); plane_residuals : (m, 4) mm (rib-plane fit per side).
+
+def conical(normals: np.ndarray) -> np.ndarray:
+    """(m,) bool: the panel normals (m, k, k, 3) lie on a small circle of the Gauss sphere."""
+    m = len(normals)
+    flat = normals.reshape(m, -1, 3)
+    axis, offset, residual = bestfit_planes(flat)
+    mean = flat.mean(axis=1)
+    mean /= np.linalg.norm(mean, axis=1, keepdims=True)
+    spread = np.arccos(np.clip(np.einsum("mki,mi->mk", flat, mean), -1, 1)).max(axis=1)
+    return ((np.abs(offset) >= CONE_OFFSET) & (residual <= CONE_FIT * np.sin(spread))
+            & (np.degrees(spread) >= CONE_SPREAD_DEG))
+
+
+def advised_panel_size(samples: np.ndarray, strain: np.ndarray, tolerance: float) -> np.ndarray:
+    """(m,) mm: the panel size at which each panel's unroll strain would meet ``tolerance``.
+
+    The strain of a doubly curved patch flattened isometrically grows with its size squared
+    (metric distortion ~ K L^2), so the size scales with sqrt(tolerance / strain); panels within
+    tolerance keep their own size.
+    """
+    corners = samples[:, [0, -1, -1, 0], [0, 0, -1, -1]]
+    size = np.linalg.norm(corners - np.roll(corners, -1, axis=1), axis=-1).mean(axis=1)
+    ratio = np.sqrt(tolerance / np.maximum(strain, tolerance))
+    return np.floor(ADVICE_MARGIN * size * ratio / ADVICE_ROUNDING) * ADVICE_ROUNDING
+
+
+def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normals: np.ndarray,
+                         edge_residuals: np.ndarray, normal_angles: np.ndarray,
+                         bevel_twist: np.ndarray, query: SurfaceQuery, job: Job):
+    """Class, smallest bending radius, metrics, issues and sample deviations of every panel.
+
+    samples, normals : (m, k, k, 3); edge_residuals : (m, 4) mm (side samples from their rib
+    plane); normal_angles, bevel_twist : (m, 4) degrees (normals along a side against its rib
+    plane: largest angle, and its variation along the side; see ``sides.side_planes``).
+    Returns ``classes, radius (m,), metrics, issues, deviation (m, k, k) mm``.
     """
     m, k = samples.shape[:2]
     strain = np.array([flatten_grid(grid)[1] for grid in samples])
@@ -53,6 +96,8 @@ def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normal
                             + sample_dist.reshape(m, -1).mean(axis=1))
     span = np.linalg.norm(samples[:, -1, -1] - samples[:, 0, 0], axis=1)
     tolerance = job.develop.strain_tolerance
+    cones = conical(normals)
+    advice = advised_panel_size(samples, strain, tolerance)
 
     classes: list[PanelClass] = []
     issues: list[Issue] = []
@@ -61,17 +106,28 @@ def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normal
             classes.append("planar")
             radius[i] = np.inf
         elif strain[i] <= tolerance:
-            classes.append("single-curved")
+            classes.append("conical" if cones[i] else "single-curved")
         else:
             classes.append("not-developable")
             issues.append(Issue("not-developable",
-                                f"panel {pid} unrolls with {strain[i]:.2%} strain, above the "
-                                f"{tolerance:.2%} tolerance", pid, "warning"))
-        worst_side = float(plane_residuals[i].max())
-        if worst_side > TOLERANCES.rib_planarity:
+                                f"panel {pid} unrolls with {strain[i]:.3%} strain, above the "
+                                f"{tolerance:.3%} tolerance: it spans {gauss_area[i]:.2e} sr of "
+                                f"the Gauss sphere (doubly curved); at a panel size of about "
+                                f"{advice[i]:.0f} mm it would unroll within tolerance", pid,
+                                "warning"))
+        worst_side = float(edge_residuals[i].max())
+        if worst_side > TOLERANCES.rib_edge:
             issues.append(Issue("rib-not-planar",
-                                f"panel {pid}: a side deviates {worst_side:.3f} mm from its rib "
-                                f"plane (tolerance {TOLERANCES.rib_planarity} mm)", pid, "warning"))
+                                f"panel {pid}: a side leaves its rib plane by {worst_side:.3f} mm "
+                                f"(tolerance {TOLERANCES.rib_edge} mm); use [develop] method = "
+                                f"\"global\" or raise rib_planarity", pid, "warning"))
+    failing = strain > tolerance
+    if failing.any():
+        issues.append(Issue("panel-size-advice",
+                            f"{int(failing.sum())} panels are too doubly curved to develop at "
+                            f"their size; --panel-size {advice[failing].min() / 1000:g}m would "
+                            f"bring the worst of them within the {tolerance:.3%} strain tolerance",
+                            "", "warning"))
     forming = ["none" if c == "planar" else
                ("press" if r < TOLERANCES.press_forming_radius else "roll")
                for c, r in zip(classes, radius)]
@@ -83,7 +139,11 @@ def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normal
               "deviation_max_mm": round(float(deviation[i]), 4),
               "deviation_mean_mm": round(float(mean_deviation[i]), 4),
               "deviation_max_pct_span": round(float(100 * deviation[i] / span[i]), 5),
-              "rib_plane_residual_mm": round(float(plane_residuals[i].max()), 5)}
+              "deviation_mean_pct_span": round(float(100 * mean_deviation[i] / span[i]), 5),
+              "rib_plane_residual_mm": round(float(edge_residuals[i].max()), 5),
+              "rib_normal_angle_deg": round(float(normal_angles[i].max()), 4),
+              "rib_bevel_twist_deg": round(float(bevel_twist[i].max()), 4),
+              **({"advised_panel_size_mm": float(advice[i])} if failing[i] else {})}
         for i, pid in enumerate(panel_ids)}
     finite_radius = radius[np.isfinite(radius)]
     metrics = {
@@ -94,10 +154,13 @@ def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normal
         "deviation_mm": {"max": round(float(deviation.max()), 4),
                          "mean": round(float(mean_deviation.mean()), 4)},
         "deviation_pct_span_max": round(float(100 * (deviation / span).max()), 5),
-        "rib_plane_residual_mm_max": round(float(plane_residuals.max()), 5),
+        "deviation_pct_span_mean": round(float(100 * (mean_deviation / span).mean()), 5),
+        "rib_plane_residual_mm_max": round(float(edge_residuals.max()), 5),
+        "rib_normal_angle_deg_max": round(float(normal_angles.max()), 4),
+        "rib_bevel_twist_deg_max": round(float(bevel_twist.max()), 4),
         "bending_radius_mm_min": (round(float(finite_radius.min()), 1)
                                   if len(finite_radius) else None),
-        "panels_not_developable": int(sum(c == "not-developable" for c in classes)),
+        "panels_not_developable": int(failing.sum()),
         "per_panel": per_panel,
     }
-    return tuple(classes), radius, metrics, tuple(issues)
+    return tuple(classes), radius, metrics, tuple(issues), sample_dist.reshape(m, k, k)

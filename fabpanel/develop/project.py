@@ -47,17 +47,21 @@ def sample_panels(layout: PanelLayout, query: SurfaceQuery, k: int) -> tuple[np.
 
 def developed_panels(layout: PanelLayout, samples: np.ndarray, normals: np.ndarray,
                      query: SurfaceQuery, job: Job, method: str, extra_metrics: dict | None = None,
-                     extra_issues: tuple = ()) -> DevelopedPanels:
-    """Rib planes, classes and measures of final panel grids, as :class:`DevelopedPanels`."""
-    planes, plane_residuals = side_planes(samples, normals, job.sandwich.total_depth)
-    classes, radius, metrics, issues = classify_and_measure(
-        layout.panel_ids, samples, normals, plane_residuals, query, job)
+                     extra_issues: tuple = (),
+                     design_samples: np.ndarray | None = None) -> DevelopedPanels:
+    """Rib planes, classes and measures of final panel grids, as :class:`DevelopedPanels`.
+
+    ``design_samples``: the panels on the design surface before development, if they moved."""
+    planes, edge_residuals, normal_angles, twist = side_planes(samples, normals)
+    classes, radius, metrics, issues, deviation = classify_and_measure(
+        layout.panel_ids, samples, normals, edge_residuals, normal_angles, twist, query, job)
     metrics["method"] = method
     metrics.update(extra_metrics or {})
     log.info("develop (%s): %s", method, {c: classes.count(c) for c in set(classes)})
     return DevelopedPanels(layout=layout, samples=samples, normals=normals, side_planes=planes,
                            classes=classes, bending_radius=radius, method=method,
-                           metrics=metrics, issues=tuple(extra_issues) + issues)
+                           metrics=metrics, issues=tuple(extra_issues) + issues,
+                           deviation=deviation, design_samples=design_samples)
 
 
 def surface_sides(starts: np.ndarray, ends: np.ndarray, query: SurfaceQuery, count: int,

@@ -17,30 +17,54 @@ def panel_sides(grids: np.ndarray) -> np.ndarray:
                     axis=1)
 
 
-def side_planes(samples: np.ndarray, normals: np.ndarray, depth: float) -> tuple[np.ndarray,
-                                                                                  np.ndarray]:
-    """Rib plane of every panel side: the plane through the side's samples and their normals.
+#: a side that lies this close (mm) to the plane through its own direction and its mean normal
+#: gets that plane: its rib stands square to the sheet. Otherwise the side is curved enough to
+#: fix its own plane (the sheet edge must lie on the rib), and the rib takes that plane
+SQUARE_RIB_FIT = 0.05
 
-    The plane is fitted to the side polyline and to the same polyline moved by ``depth`` (mm,
-    the build-up depth) along its normals, so it holds the rib's top and bottom edge at once.
-    Returns ``planes (m, 4, 4)`` as (nx, ny, nz, d) with the normal pointing into the panel, and
-    ``residuals (m, 4)``: the largest distance of those points to the plane, mm (zero for a
-    planar curvature-line side such as the arcs and generators of a cylinder).
+
+def side_planes(samples: np.ndarray,
+                normals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rib plane of every panel side, with how well the side and its normals lie in it.
+
+    The plane holds the sheet edge: the best-fitting plane of the side's samples, or, where the
+    side is nearly straight and leaves that plane undetermined, the plane through the side's
+    direction and its mean normal (``SQUARE_RIB_FIT``).
+    Returns ``planes (m, 4, 4)`` as (nx, ny, nz, d) with the normal pointing into the panel;
+    ``edge_residuals (m, 4)``: the largest distance of a side sample from its plane, mm; and
+    ``normal_angles (m, 4)``: the largest angle between a normal along the side (corners
+    excluded: the ribs are trimmed against each other there) and the plane, degrees: the rib
+    stands that much off square to the sheet; ``bevel_twist (m, 4)``: how much that angle varies
+    along the side, degrees. The twist is zero exactly where the side is a planar curvature line
+    (Joachimsthal): the arcs and generators of a cylinder (angle 0 too), the parallels of a
+    cone (angle constant, not 0).
     """
     m, k = samples.shape[:2]
     side_points = panel_sides(samples)                      # (m, 4, k, 3)
     side_normals = panel_sides(normals)
-    cloud = np.concatenate([side_points, side_points - depth * side_normals], axis=2)
-    plane_normals, offsets, residuals = bestfit_planes(cloud.reshape(m * 4, 2 * k, 3))
-    plane_normals = plane_normals.reshape(m, 4, 3)
-    offsets = offsets.reshape(m, 4)
+    flat_points = side_points.reshape(m * 4, k, 3)
+    plane_normals, offsets, edge_fit = bestfit_planes(flat_points)
+    # square alternative: through the principal direction of the samples and the mean normal
+    centroid = flat_points.mean(axis=1)
+    direction = np.linalg.svd(flat_points - centroid[:, None], full_matrices=False)[2][:, 0]
+    square = np.cross(direction, side_normals.reshape(m * 4, k, 3).sum(axis=1))
+    square /= np.maximum(np.linalg.norm(square, axis=1, keepdims=True), 1e-300)
+    square_offsets = np.einsum("bi,bi->b", square, centroid)
+    square_fit = np.abs(np.einsum("bki,bi->bk", flat_points, square)
+                        - square_offsets[:, None]).max(axis=1)
+    use_square = square_fit <= np.maximum(SQUARE_RIB_FIT, edge_fit)
+    plane_normals = np.where(use_square[:, None], square, plane_normals).reshape(m, 4, 3)
+    offsets = np.where(use_square, square_offsets, offsets).reshape(m, 4)
     # orient each plane normal towards the panel's centre sample
     centre = samples[:, k // 2, k // 2]                     # (m, 3)
     inward = np.einsum("msi,mi->ms", plane_normals, centre) - offsets < 0
     plane_normals[inward] *= -1
     offsets[inward] *= -1
     planes = np.concatenate([plane_normals, offsets[..., None]], axis=2)
-    return planes, residuals.reshape(m, 4)
+    edge = np.abs(np.einsum("mski,msi->msk", side_points, plane_normals) - offsets[..., None])
+    sine = np.einsum("mski,msi->msk", side_normals[:, :, 1:-1], plane_normals)
+    angles = np.degrees(np.arcsin(np.clip(sine, -1.0, 1.0)))
+    return planes, edge.max(axis=2), np.abs(angles).max(axis=2), np.ptp(angles, axis=2)
 
 
 def neighbour_sides(layout) -> tuple[np.ndarray, np.ndarray]:

@@ -5,16 +5,18 @@ from __future__ import annotations
 import numpy as np
 
 
-def bestfit_planes(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Best-fitting plane of each point set (total least squares).
+def bestfit_planes(points: np.ndarray, weights: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Best-fitting plane of each point set (total least squares, optionally weighted).
 
-    points : (b, n, 3) float
+    points : (b, n, 3) float; weights : (n,) float, the same for every set (default all 1).
     Returns ``normals (b, 3)`` unit, ``offsets (b,)`` with ``n . x = d`` and ``residuals (b,)``:
     the largest absolute distance of a point of the set to its plane.
     """
     points = np.asarray(points, dtype=float)
-    centroids = points.mean(axis=1)
-    centred = points - centroids[:, None, :]
+    w = np.ones(points.shape[1]) if weights is None else np.asarray(weights, dtype=float)
+    centroids = np.einsum("n,bni->bi", w, points) / w.sum()
+    centred = (points - centroids[:, None, :]) * np.sqrt(w)[None, :, None]
     # smallest right-singular vector = plane normal; batched SVD on (b, n, 3)
     _, _, vt = np.linalg.svd(centred, full_matrices=False)
     normals = vt[:, -1, :]

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .develop_figures import curvature_figure, deviation_figure
+
 CLASS_COLOURS = {"planar": "#4c9be8", "single-curved": "#59b36b", "conical": "#e0b03a",
                  "not-developable": "#d9534f"}
 
@@ -127,6 +129,11 @@ def write_report(result, folder: Path) -> None:
                 sections.append(f'<p>{legend}</p><img alt="panels coloured by class" '
                                 f'src="data:image/png;base64,{panel_figure(result.developed)}">')
             if key == "developability" and result.developed is not None:
+                for figure, alt in ((curvature_figure, "Gaussian curvature before and after"),
+                                    (deviation_figure, "deviation from the design surface")):
+                    data = figure(result.developed)
+                    if data is not None:
+                        sections.append(f'<img alt="{alt}" src="data:image/png;base64,{data}">')
                 per_panel = result.developed.metrics["per_panel"]
                 head = "".join(f"<th>{html.escape(h)}</th>" for h in
                                ["panel", *next(iter(per_panel.values())).keys()])

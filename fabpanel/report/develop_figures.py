@@ -1,0 +1,105 @@
+"""Rationalisation figures: Gaussian curvature before and after (the thesis's Figures 24-25) and
+the deviation from the design surface, in plan, every sample-grid cell coloured."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geom.quads import angle_defects
+
+
+def gaussian_curvature(samples: np.ndarray) -> np.ndarray:
+    """(m, k-1, k-1) 1/m^2: discrete Gaussian curvature per grid cell.
+
+    The angle defect at an interior sample divided by a quarter of its four cells' areas
+    (Gauss-Bonnet), carried to the panel's border samples from the nearest interior one, then
+    averaged over each cell's four corners.
+    """
+    cells = _cell_areas(samples)                                     # (m, k-1, k-1) mm^2
+    vertex_area = 0.25 * (cells[:, :-1, :-1] + cells[:, 1:, :-1] + cells[:, 1:, 1:]
+                          + cells[:, :-1, 1:])
+    curvature = angle_defects(samples) / vertex_area * 1e6           # 1/m^2
+    full = np.pad(curvature, ((0, 0), (1, 1), (1, 1)), mode="edge")
+    return _cell_means(full)
+
+
+def _cell_areas(samples: np.ndarray) -> np.ndarray:
+    a, b = samples[:, :-1, :-1], samples[:, 1:, :-1]
+    c, d = samples[:, 1:, 1:], samples[:, :-1, 1:]
+    return 0.5 * np.linalg.norm(np.cross(c - a, d - b), axis=-1)
+
+
+def _cell_means(values: np.ndarray) -> np.ndarray:
+    return 0.25 * (values[:, :-1, :-1] + values[:, 1:, :-1] + values[:, 1:, 1:]
+                   + values[:, :-1, 1:])
+
+
+def _plan_cells(ax, samples: np.ndarray, values: np.ndarray, **style):
+    """Every grid cell as a filled quad in plan (x, y in m), coloured by ``values``."""
+    from matplotlib.collections import PolyCollection
+
+    corners = np.stack([samples[:, :-1, :-1], samples[:, 1:, :-1], samples[:, 1:, 1:],
+                        samples[:, :-1, 1:]], axis=3)[..., :2] / 1000.0
+    cells = PolyCollection(corners.reshape(-1, 4, 2), array=values.ravel(), edgecolors="none",
+                           **style)
+    ax.add_collection(cells)
+    outline = np.concatenate([samples[:, :, 0], samples[:, -1, :], samples[:, ::-1, -1],
+                              samples[:, 0, ::-1]], axis=1)[..., :2] / 1000.0
+    for line in outline:
+        ax.plot(line[:, 0], line[:, 1], color="k", linewidth=0.3)
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+    ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]")
+    return cells
+
+
+def curvature_figure(developed) -> str | None:
+    """Base64 PNG: Gaussian curvature of the panels on the design surface and after
+    development, on one colour scale; ``None`` when the panels did not move."""
+    if developed.design_samples is None:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .html import _png
+
+    before = gaussian_curvature(developed.design_samples)
+    after = gaussian_curvature(developed.samples)
+    limit = float(np.percentile(np.abs(before), 99)) or 1e-6
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
+    for ax, grids, values, title in ((axes[0], developed.design_samples, before,
+                                      "design surface"),
+                                     (axes[1], developed.samples, after,
+                                      f"after '{developed.method}'")):
+        cells = _plan_cells(ax, grids, values, cmap="RdBu_r", clim=(-limit, limit))
+        ax.set_title(f"Gaussian curvature, {title}: |K| max {np.abs(values).max():.3g} 1/m²",
+                     fontsize=10)
+    fig.colorbar(cells, ax=axes, shrink=0.8, label="K [1/m²]")
+    data = _png(fig)
+    plt.close(fig)
+    return data
+
+
+def deviation_figure(developed) -> str | None:
+    """Base64 PNG: distance of the developed panels from the design surface, mm."""
+    if developed.deviation is None:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .html import _png
+
+    values = _cell_means(developed.deviation)
+    fig, ax = plt.subplots(figsize=(6.5, 4.6), constrained_layout=True)
+    cells = _plan_cells(ax, developed.samples, values, cmap="viridis",
+                        clim=(0.0, max(float(values.max()), 1e-3)))
+    ax.set_title(f"deviation from the design surface: max {developed.deviation.max():.2f} mm, "
+                 f"mean {developed.deviation.mean():.2f} mm", fontsize=10)
+    fig.colorbar(cells, ax=ax, shrink=0.8, label="mm")
+    data = _png(fig)
+    plt.close(fig)
+    return data
