@@ -467,9 +467,10 @@ density = "strips"             # skeleton: densify per strip (strips) or by catm
 relax = true                   # skeleton: relax the dense layout on the surface
 
 [develop]
-method = "project"             # project: sample panels on the design surface, measure developability
+method = "global"              # global: optimise all panels at once (developable, planar ribs)
+                               # loft: the thesis's per-panel ruled surfaces | project: as designed
 samples = 9                    # k x k samples per panel (9 = the thesis's subdivision level 3)
-strain_tolerance = 0.001       # largest unroll strain of a developable panel (0.1 %)
+strain_tolerance = 0.0005      # largest unroll strain of a developable panel (0.05 %)
 
 [sandwich]
 buildup = "sandwich"           # sandwich (top + bottom sheet, ribs) | cladding (one sheet)

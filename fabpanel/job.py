@@ -93,17 +93,18 @@ class PanelizeSection(_Section):
 class DevelopSection(_Section):
     """[develop]: how panel surfaces are made developable."""
 
-    #: ``global`` (experimental in this version, see the README): one optimisation moves all
-    #: panels at once towards developability with planar rib edges, staying close to the design
-    #: surface (Gavriil et al. 2019 Gauss-image planes); ``loft``: the thesis's baseline, a ruled surface per panel between two opposite
-    #: sides (Appendix D); ``project``: panels sampled on the design surface itself (exact when it
-    #: is already developable, e.g. a barrel vault), developability measured, not enforced.
-    method: Literal["global", "loft", "project"] = "project"
+    #: ``global`` (default): one optimisation moves all panels at once to developable panels with
+    #: planar rib edges, staying close to the design surface (Gavriil et al. 2019 Gauss-image
+    #: planes; see :mod:`fabpanel.develop.optimise`); ``loft``: the thesis's baseline, a ruled
+    #: surface per panel between two opposite sides (Appendix D); ``project``: panels sampled on
+    #: the design surface itself (exact when it is already developable, e.g. a barrel vault),
+    #: developability measured, not enforced.
+    method: Literal["global", "loft", "project"] = "global"
     #: samples per panel side (k x k grid per panel; 9 is the thesis's subdivision level 3)
     samples: int = Field(default=9, ge=3, le=65)
     #: largest unroll strain (relative edge-length change) for a panel to count as developable.
-    #: 1e-3 is 0.1 %: on a 1.5 m sheet 1.5 mm, the plasma and rolling tolerance together.
-    strain_tolerance: float = Field(default=1e-3, gt=0, lt=0.5)
+    #: 5e-4 is 0.05 %: 0.75 mm on a 1.5 m sheet, within the plasma tolerance.
+    strain_tolerance: float = Field(default=5e-4, gt=0, lt=0.5)
     #: global: weight of closeness to the design surface against developability (1). Lower lets
     #: panels move further to become developable; higher keeps the shape
     closeness: float = Field(default=0.05, gt=0, le=100)

@@ -19,7 +19,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 @pytest.fixture(scope="module")
 def vault():
     surface = load_surface(EXAMPLES / "barrel-vault.step")
-    job = Job.from_dict({"panelize": {"grid_u": 4, "grid_v": 3}})
+    job = Job.from_dict({"panelize": {"grid_u": 4, "grid_v": 3}, "develop": {"method": "project"}})
     return develop(panelize(surface, job), surface, job)
 
 
@@ -56,7 +56,7 @@ def test_rib_planes_point_into_the_panel(vault):
 
 def test_doubly_curved_panels_are_not_developable(tmp_path):
     surface = sphere_cap(tmp_path, n=30)
-    job = Job.from_dict({"panelize": {"grid_u": 3, "grid_v": 3}})
+    job = Job.from_dict({"panelize": {"grid_u": 3, "grid_v": 3}, "develop": {"method": "project"}})
     developed = develop(panelize(surface, job), surface, job)
     assert developed.classes.count("not-developable") == 9
     assert developed.metrics["unroll_strain"]["min"] > 1e-3

@@ -132,7 +132,7 @@ def test_global_makes_a_sphere_cap_developable_closer_than_the_loft(tmp_path):
     cap = _cap(tmp_path)
     job = Job.from_dict({"panelize": {"grid_u": 4, "grid_v": 4}, "develop": {"samples": 7}})
     layout = panelize(cap, job)
-    projected = develop(layout, cap, job)
+    projected = develop(layout, cap, job.replace(develop={"method": "project"}))
     lofted = develop(layout, cap, job.replace(develop={"method": "loft"}))
     optimised = develop(layout, cap, job.replace(develop={"method": "global"}))
     assert projected.metrics["unroll_strain"]["min"] > 3e-3
@@ -168,7 +168,7 @@ def test_global_makes_a_hypar_developable_closer_than_the_loft(tmp_path):
     hypar = hypar_patch(tmp_path)
     job = Job.from_dict({"panelize": {"grid_u": 3, "grid_v": 3}})
     layout = panelize(hypar, job)
-    projected = develop(layout, hypar, job)
+    projected = develop(layout, hypar, job.replace(develop={"method": "project"}))
     lofted = develop(layout, hypar, job.replace(develop={"method": "loft"}))
     optimised = develop(layout, hypar, job.replace(develop={"method": "global"}))
     assert projected.metrics["panels_not_developable"] == 9
