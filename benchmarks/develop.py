@@ -59,6 +59,7 @@ def main() -> None:
                       "strain_max": m["unroll_strain"]["max"],
                       "strain_mean": m["unroll_strain"]["mean"],
                       "rib_plane_residual_mm_max": m["rib_plane_residual_mm_max"],
+                      "rib_plane_residual_mm_max_interior": m["rib_plane_residual_mm_max_interior"],
                       "rib_normal_angle_deg_max": m["rib_normal_angle_deg_max"],
                       "rib_bevel_twist_deg_max": m["rib_bevel_twist_deg_max"],
                       "classes": m["classes"],

@@ -136,8 +136,8 @@ def test_global_makes_a_sphere_cap_developable_closer_than_the_loft(tmp_path):
     lofted = develop(layout, cap, job.replace(develop={"method": "loft"}))
     optimised = develop(layout, cap, job.replace(develop={"method": "global"}))
     assert projected.metrics["unroll_strain"]["min"] > 3e-3
-    # measured: 0.049 % strain at most, all panels developable, no gaps; mean deviation
-    # 34.8 mm against the loft's 40.3 mm (whose panels part by up to 67 mm)
+    # measured: 0.022 % strain at most, all panels developable, no gaps; mean deviation
+    # 21.4 mm against the loft's 40.3 mm (whose panels part by up to 67 mm)
     assert optimised.metrics["unroll_strain"]["max"] < 1e-3
     assert optimised.metrics["panels_not_developable"] == 0
     assert optimised.metrics["gap_mm_max"] == 0.0
@@ -178,3 +178,4 @@ def test_global_makes_a_hypar_developable_closer_than_the_loft(tmp_path):
     assert lofted.metrics["gap_mm_max"] > 10.0
     assert optimised.metrics["deviation_mm"]["mean"] < lofted.metrics["deviation_mm"]["mean"]
     assert optimised.metrics["rib_plane_residual_mm_max"] < 1.0
+    assert optimised.metrics["rib_plane_residual_mm_max_interior"] < 0.5      # the target

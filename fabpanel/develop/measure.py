@@ -33,12 +33,15 @@ def gauss_image_areas(samples: np.ndarray) -> np.ndarray:
 
 
 #: a developable panel is conical when its normals lie on a small circle of the Gauss sphere
-#: whose plane is off the centre by at least this (the sine of the generators' angle to the
-#: circle plane: 3 degrees), the circle holds them within CONE_FIT (share of their spread), and
-#: they spread by at least CONE_SPREAD_DEG (a short arc cannot tell a small circle from a great
-#: one)
+#: whose plane is off the centre by at least CONE_OFFSET (the sine of the generators' angle to the
+#: circle plane: 3 degrees), the circle holds them within CONE_FIT (share of their spread), no
+#: great circle (a cylinder) holds them within CONE_DISTINCT times that or GREAT_CIRCLE_FIT
+#: (0.06 degrees: a short arc of normals cannot tell the two apart), and they spread by at least
+#: CONE_SPREAD_DEG
 CONE_OFFSET = np.sin(np.radians(3.0))
 CONE_FIT = 0.05
+CONE_DISTINCT = 3.0
+GREAT_CIRCLE_FIT = 1e-3
 CONE_SPREAD_DEG = 2.0
 #: advised panel sizes are rounded down to this (mm) and kept below the strain law's estimate
 #: by ADVICE_MARGIN: the unroll strain of a doubly curved patch grows with the square of its size
@@ -54,7 +57,10 @@ def conical(normals: np.ndarray) -> np.ndarray:
     mean = flat.mean(axis=1)
     mean /= np.linalg.norm(mean, axis=1, keepdims=True)
     spread = np.arccos(np.clip(np.einsum("mki,mi->mk", flat, mean), -1, 1)).max(axis=1)
+    great = np.linalg.svd(flat, full_matrices=False)[2][:, -1]          # plane through 0
+    great_residual = np.abs(np.einsum("mki,mi->mk", flat, great)).max(axis=1)
     return ((np.abs(offset) >= CONE_OFFSET) & (residual <= CONE_FIT * np.sin(spread))
+            & (great_residual > np.maximum(CONE_DISTINCT * residual, GREAT_CIRCLE_FIT))
             & (np.degrees(spread) >= CONE_SPREAD_DEG))
 
 
@@ -73,12 +79,15 @@ def advised_panel_size(samples: np.ndarray, strain: np.ndarray, tolerance: float
 
 def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normals: np.ndarray,
                          edge_residuals: np.ndarray, normal_angles: np.ndarray,
-                         bevel_twist: np.ndarray, query: SurfaceQuery, job: Job):
+                         bevel_twist: np.ndarray, boundary_sides: np.ndarray,
+                         query: SurfaceQuery, job: Job):
     """Class, smallest bending radius, metrics, issues and sample deviations of every panel.
 
     samples, normals : (m, k, k, 3); edge_residuals : (m, 4) mm (side samples from their rib
     plane); normal_angles, bevel_twist : (m, 4) degrees (normals along a side against its rib
-    plane: largest angle, and its variation along the side; see ``sides.side_planes``).
+    plane: largest angle, and its variation along the side; see ``sides.side_planes``);
+    boundary_sides : (m, 4) bool, sides on the design boundary (held there, so their ribs are as
+    planar as the design's edge)
     Returns ``classes, radius (m,), metrics, issues, deviation (m, k, k) mm``.
     """
     m, k = samples.shape[:2]
@@ -115,12 +124,16 @@ def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normal
                                 f"the Gauss sphere (doubly curved); at a panel size of about "
                                 f"{advice[i]:.0f} mm it would unroll within tolerance", pid,
                                 "warning"))
-        worst_side = float(edge_residuals[i].max())
+        worst = int(np.argmax(edge_residuals[i]))
+        worst_side = float(edge_residuals[i, worst])
         if worst_side > TOLERANCES.rib_edge:
+            remedy = ("it lies on the design boundary, which is not planar there"
+                      if boundary_sides[i, worst] else
+                      "use [develop] method = \"global\" or raise rib_planarity")
             issues.append(Issue("rib-not-planar",
-                                f"panel {pid}: a side leaves its rib plane by {worst_side:.3f} mm "
-                                f"(tolerance {TOLERANCES.rib_edge} mm); use [develop] method = "
-                                f"\"global\" or raise rib_planarity", pid, "warning"))
+                                f"panel {pid}: side {worst} leaves its rib plane by "
+                                f"{worst_side:.3f} mm (tolerance {TOLERANCES.rib_edge} mm); "
+                                f"{remedy}", pid, "warning"))
     failing = strain > tolerance
     if failing.any():
         issues.append(Issue("panel-size-advice",
@@ -156,6 +169,10 @@ def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normal
         "deviation_pct_span_max": round(float(100 * (deviation / span).max()), 5),
         "deviation_pct_span_mean": round(float(100 * (mean_deviation / span).mean()), 5),
         "rib_plane_residual_mm_max": round(float(edge_residuals.max()), 5),
+        "rib_plane_residual_mm_max_interior": round(float(edge_residuals[~boundary_sides].max(
+            initial=0.0)), 5),
+        "rib_plane_residual_mm_max_boundary": round(float(edge_residuals[boundary_sides].max(
+            initial=0.0)), 5),
         "rib_normal_angle_deg_max": round(float(normal_angles.max()), 4),
         "rib_bevel_twist_deg_max": round(float(bevel_twist.max()), 4),
         "bending_radius_mm_min": (round(float(finite_radius.min()), 1)

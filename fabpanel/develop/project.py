@@ -54,7 +54,8 @@ def developed_panels(layout: PanelLayout, samples: np.ndarray, normals: np.ndarr
     ``design_samples``: the panels on the design surface before development, if they moved."""
     planes, edge_residuals, normal_angles, twist = side_planes(samples, normals)
     classes, radius, metrics, issues, deviation = classify_and_measure(
-        layout.panel_ids, samples, normals, edge_residuals, normal_angles, twist, query, job)
+        layout.panel_ids, samples, normals, edge_residuals, normal_angles, twist,
+        layout.side_neighbours < 0, query, job)
     metrics["method"] = method
     metrics.update(extra_metrics or {})
     log.info("develop (%s): %s", method, {c: classes.count(c) for c in set(classes)})
