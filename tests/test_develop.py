@@ -63,7 +63,7 @@ def test_doubly_curved_panels_are_not_developable(tmp_path):
     assert {i.code for i in developed.issues} >= {"not-developable", "panel-size-advice"}
     # advice: the strain of a doubly curved patch grows with its size squared, so a panel at
     # the advised size unrolls within tolerance
-    for pid, panel in developed.metrics["per_panel"].items():
+    for panel in developed.metrics["per_panel"].values():
         assert panel["advised_panel_size_mm"] < 2000.0
     advised = min(p["advised_panel_size_mm"] for p in developed.metrics["per_panel"].values())
     smaller = job.replace(panelize={"grid_u": None, "grid_v": None,
@@ -90,7 +90,7 @@ def test_rib_planes_of_a_cone_hold_the_sides_at_a_constant_bevel():
     grid = np.stack([rr * np.cos(tt), rr * np.sin(tt), -rr * slope], -1)[None]
     normal = np.stack([np.sin(np.radians(30.0)) * np.cos(tt), np.sin(np.radians(30.0))
                        * np.sin(tt), np.full_like(tt, np.cos(np.radians(30.0)))], -1)[None]
-    planes, edge, angle, twist = side_planes(grid, normal)
+    _, edge, angle, twist = side_planes(grid, normal)
     assert edge.max() < 1e-6
     assert twist.max() < 1e-6
     np.testing.assert_allclose(angle[0], [0.0, 60.0, 0.0, 60.0], atol=1e-6)

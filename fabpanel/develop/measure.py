@@ -53,7 +53,7 @@ def conical(normals: np.ndarray) -> np.ndarray:
     """(m,) bool: the panel normals (m, k, k, 3) lie on a small circle of the Gauss sphere."""
     m = len(normals)
     flat = normals.reshape(m, -1, 3)
-    axis, offset, residual = bestfit_planes(flat)
+    _, offset, residual = bestfit_planes(flat)
     mean = flat.mean(axis=1)
     mean /= np.linalg.norm(mean, axis=1, keepdims=True)
     spread = np.arccos(np.clip(np.einsum("mki,mi->mk", flat, mean), -1, 1)).max(axis=1)
