@@ -76,7 +76,10 @@ def test_output_contract(vault_run):
     mass = sum(float(r["mass_kg"]) for r in rows)
     assert mass == pytest.approx(vault_run.model.mass, rel=1e-4)
     assert not list(out.parent.glob(".out.*"))              # no staging folder left
-    assert "<img" in (out / "report" / "index.html").read_text()
+    report = (out / "report" / "index.html").read_text()
+    # the default (global) rationalisation draws curvature before/after and the deviation map
+    assert 'alt="Gaussian curvature before and after"' in report
+    assert 'alt="deviation from the design surface"' in report
 
 
 def test_step_reimports_to_the_manifest_parts(vault_run):
