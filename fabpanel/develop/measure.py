@@ -127,9 +127,12 @@ def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normal
         worst = int(np.argmax(edge_residuals[i]))
         worst_side = float(edge_residuals[i, worst])
         if worst_side > TOLERANCES.rib_edge:
-            remedy = ("it lies on the design boundary, which is not planar there"
-                      if boundary_sides[i, worst] else
-                      "use [develop] method = \"global\" or raise rib_planarity")
+            if boundary_sides[i, worst]:
+                remedy = "it lies on the design boundary, which is not planar there"
+            elif job.develop.method == "global":
+                remedy = "raise [develop] rib_planarity or max_iterations"
+            else:
+                remedy = "use [develop] method = \"global\""
             issues.append(Issue("rib-not-planar",
                                 f"panel {pid}: side {worst} leaves its rib plane by "
                                 f"{worst_side:.3f} mm (tolerance {TOLERANCES.rib_edge} mm); "

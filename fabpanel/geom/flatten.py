@@ -23,20 +23,13 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .quads import grid_triangles
+
 log = logging.getLogger(__name__)
 
 #: Gauss-Newton stops when the largest relative edge-length error falls below this
 _STRAIN_EXACT = 1e-13
 _MAX_ITERATIONS = 60
-
-
-def grid_triangles(a: int, b: int) -> np.ndarray:
-    """(2 (a-1)(b-1), 3) int: triangles of an a x b grid (flat indices ``i * b + j``), oriented
-    so that their right-hand normal is ``d_i x d_j``."""
-    i, j = np.meshgrid(np.arange(a - 1), np.arange(b - 1), indexing="ij")
-    v00 = (i * b + j).ravel()
-    v10, v11, v01 = v00 + b, v00 + b + 1, v00 + 1
-    return np.concatenate([np.stack([v00, v10, v11], 1), np.stack([v00, v11, v01], 1)])
 
 
 def grid_edges(a: int, b: int) -> np.ndarray:

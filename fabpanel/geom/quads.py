@@ -37,7 +37,8 @@ def circumradii(points: np.ndarray) -> np.ndarray:
 
 
 def grid_triangles(a: int, b: int) -> np.ndarray:
-    """(2 (a-1)(b-1), 3) int: triangles of an a x b grid with vertex index ``i * b + j``."""
+    """(2 (a-1)(b-1), 3) int: triangles of an a x b grid with vertex index ``i * b + j``,
+    oriented so that their right-hand normal is ``d_i x d_j``."""
     i, j = np.meshgrid(np.arange(a - 1), np.arange(b - 1), indexing="ij")
     v00 = (i * b + j).ravel()
     v10, v01, v11 = v00 + b, v00 + 1, v00 + b + 1

@@ -7,6 +7,11 @@ import numpy as np
 
 from ..geom.quads import angle_defects
 
+#: the colour scale of the curvature figures reaches at least this |K| (1/m^2, a sphere of 100 m
+#: radius): a panel of any practical size that curved unrolls within tolerance, so on an already
+#: developable design the round-off noise (1e-14) stays white instead of filling the scale
+CURVATURE_SCALE_FLOOR = 1e-4
+
 
 def gaussian_curvature(samples: np.ndarray) -> np.ndarray:
     """(m, k-1, k-1) 1/m^2: discrete Gaussian curvature per grid cell.
@@ -67,7 +72,7 @@ def curvature_figure(developed) -> str | None:
 
     before = gaussian_curvature(developed.design_samples)
     after = gaussian_curvature(developed.samples)
-    limit = float(np.percentile(np.abs(before), 99)) or 1e-6
+    limit = max(float(np.percentile(np.abs(before), 99)), CURVATURE_SCALE_FLOOR)
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
     for ax, grids, values, title in ((axes[0], developed.design_samples, before,
                                       "design surface"),
