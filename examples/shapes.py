@@ -479,7 +479,7 @@ sheet_thickness = "3 mm"
 # bottom_sheet_thickness = "3 mm"   # default: same as the top sheet
 rib_height = "150 mm"          # clear height of the ribs between the sheets
 rib_thickness = "8 mm"
-stiffener_offset = "120 mm"    # corner stiffeners join the points this far along both edges
+stiffener_offset = "150 mm"    # corner stiffeners join the points this far along both edges
 # stiffener_thickness = "8 mm"      # default: rib thickness
 
 [sandwich.bolts]

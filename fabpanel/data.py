@@ -257,7 +257,9 @@ class Part:
     frame : (4, 4) float or None
         ribs and stiffeners: maps the plane's (x, y, 0) to world coordinates.
     holes : tuple of Hole
-        in the flat frame (sheets: in the unrolled frame, placed by the cutting stage).
+        ribs: bolt holes in the flat frame (``outline``'s). Sheets: access openings with the
+        centre given as the surface parameters ``(u, v)`` in [0, 1]², which index
+        ``surface_grid`` uniformly; the cutting stage places them in the unrolled frame.
     """
 
     id: str
@@ -290,7 +292,8 @@ class Model:
     parts : tuple of Part
         grouped by panel in panel order; within a panel: TOP, BOT, RIB-0..3, STF-0..3.
     metrics : dict
-        checks (validity, rib planarity, clash, fit error) and totals, JSON-ready.
+        checks (validity, plate planarity, rib contact, bolt coaxiality, clash, sheet fit
+        error, neighbouring edge mismatch) and totals, JSON-ready.
     """
 
     parts: tuple[Part, ...]

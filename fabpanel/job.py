@@ -144,7 +144,7 @@ class SandwichSection(_Section):
     rib_height: PositiveLength = "150 mm"
     rib_thickness: PositiveLength = "8 mm"
     #: distance along both edges from a corner to the corner stiffener
-    stiffener_offset: PositiveLength = "120 mm"
+    stiffener_offset: PositiveLength = "150 mm"
     stiffener_thickness: PositiveLength | None = None
     bolts: BoltSection = BoltSection()
 
@@ -252,7 +252,7 @@ class Job:
     (internal units: mm, MPa, kg/mm3, s).
     """
 
-    __slots__ = ("settings", "base_dir", "source")
+    __slots__ = ("base_dir", "settings", "source")
 
     def __init__(self, settings: _JobModel | None = None, base_dir: str | Path = ".",
                  source: str | Path | None = None, **sections: dict[str, Any]):
@@ -277,6 +277,10 @@ class Job:
 
     def __hash__(self) -> int:
         return hash((self.base_dir, repr(self.settings)))
+
+    def __reduce__(self):
+        # immutable with __slots__: pickle through the constructor (worker processes, caches)
+        return (Job, (self.settings, self.base_dir, self.source))
 
     def __repr__(self) -> str:
         return f"Job(source={self.source}, base_dir={self.base_dir}, {self.to_dict()})"

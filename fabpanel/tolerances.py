@@ -28,6 +28,19 @@ class Tolerances:
     unrolled_edge: float = 0.1
     #: back-to-back ribs of neighbouring panels must touch to be bolted tight
     rib_contact_gap: float = 0.1
+    #: clash check on tessellations: every part is shrunk by this depth first, so parts that
+    #: touch (a rib on a curved sheet, whose tessellation chords cut up to ~0.05 mm into it)
+    #: leave a gap; an overlap shallower than this is not a clash (it is welded shut anyway)
+    clash_depth: float = 0.2
+    #: ... and what still overlaps must stay under this share of the smaller part's volume:
+    #: a rib misplaced by 1 mm into its neighbour shares 1/8 of its volume
+    clash_volume: float = 1e-3
+    #: a sheet edge may slide this far (relative to the build-up depth) along the sheet to
+    #: reach its rib plane; farther, the plane is nearly tangent to the sheet and the edge stays
+    trim_slide: float = 1.0
+    #: bolt holes of back-to-back ribs: 0.1 mm, far inside the 1 mm clearance of a 13 mm
+    #: hole for an M12 bolt
+    bolt_coaxial: float = 0.1
     #: re-imported STEP volumes against the built solids (relative)
     step_volume: float = 1e-3
     #: below this bending radius a sheet is press-formed instead of rolled (3-10 mm mild steel

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from shapely.geometry import Point, Polygon
 
 from fabpanel.data import Hole, Model, Part
 from fabpanel.flat import audit_dxf, cut, part_area_from_dxf, write_part_dxf, write_parts
 from fabpanel.flat.strokefont import CHARACTERS, text_strokes
+from fabpanel.flat.unroll import grid_point
 from fabpanel.geom.flatten import flatten_grid
 from fabpanel.geom.polygon import polygon_area
 from fabpanel.job import Job
@@ -100,10 +102,17 @@ def test_sphere_reports_strain():
 
 
 def test_cut_sheets_and_ribs(tmp_path):
-    model = Model(parts=(sheet(cylinder_grid(), holes=(Hole((600.0, 300.0), 40.0, "access"),)),
+    # sheet holes are given in surface parameters; two on one straight ruling (grid[i, :])
+    openings = (Hole((0.5, 0.2), 40.0, "access"), Hole((0.5, 0.8), 40.0, "access"))
+    model = Model(parts=(sheet(cylinder_grid(), holes=openings),
                          sheet(cone_grid(), "P002"), rib()), developed=None)  # type: ignore[arg-type]
     flat = cut(model, Job.from_dict({}))
     top, cone, rib_part = flat.parts
+    grid = cylinder_grid()
+    a, b = (grid_point(grid, *h.centre) for h in openings)
+    fa, fb = (np.array(h.centre) for h in top.round_holes)
+    np.testing.assert_allclose(np.linalg.norm(fb - fa), np.linalg.norm(b - a), atol=1e-6)
+    assert all(Polygon(top.outline).contains(Point(h.centre)) for h in top.round_holes)
     assert top.max_strain < 1e-6 and cone.max_strain < 1e-6 and rib_part.max_strain == 0
     assert polygon_area(top.outline) > 0 and polygon_area(rib_part.outline) > 0
     np.testing.assert_allclose(top.edge_lengths_flat, top.edge_lengths_3d, atol=1e-6)

@@ -61,7 +61,7 @@ def test_output_contract(vault_run):
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["units"]["length"] == "mm"
     assert len(manifest["panels"]) == GRID_U * GRID_V
-    assert len(manifest["parts"]) == 6 * GRID_U * GRID_V
+    assert len(manifest["parts"]) == 10 * GRID_U * GRID_V
     for panel in manifest["panels"]:
         assert (out / "model" / "panels" / f"{panel['id']}.step").is_file()
         assert panel["class"] == "single-curved"
@@ -210,7 +210,7 @@ def test_mesh_input_runs_end_to_end(tmp_path):
     job = fp.Job.for_input(EXAMPLES / "barrel-vault.obj", units="m",
                            panelize={"grid_u": 10, "grid_v": 10}, cutting={"nest_time": "0 s"})
     result = fp.run(job, out_dir=tmp_path / "out", jobs=2, until="build")
-    assert len(result.model.parts) == 600
+    assert len(result.model.parts) == 1000
     assert not [i for i in result.issues if i.severity == "error"]
     assert result.flat is None
     assert set(result.developed.classes) == {"single-curved"}
@@ -230,5 +230,5 @@ def test_global_develop_runs_end_to_end(tmp_path):
     assert metrics["deviation_mm"]["max"] < 0.05 and metrics["gap_mm_max"] == 0.0
     manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
     assert manifest["job"]["develop"]["method"] == "global"
-    assert len(manifest["parts"]) == 6 * GRID_U * GRID_V
+    assert len(manifest["parts"]) == 10 * GRID_U * GRID_V
     assert not [i for i in result.issues if i.severity == "error"]

@@ -126,6 +126,17 @@ def place_labels(outline: np.ndarray, lines: list[str], angle: float | None = No
                  for text, off in zip(lines, offsets))
 
 
+def grid_point(grid: np.ndarray, u: float, v: float) -> np.ndarray:
+    """The point at fractions ``(u, v)`` of a grid's index ranges (bilinear between samples):
+    sheet holes are stored in the surface parameters, which index ``surface_grid`` uniformly."""
+    a, b = grid.shape[:2]
+    x, y = u * (a - 1), v * (b - 1)
+    i, j = min(int(x), a - 2), min(int(y), b - 2)
+    s, t = x - i, y - j
+    return ((1 - s) * (1 - t) * grid[i, j] + s * (1 - t) * grid[i + 1, j]
+            + s * t * grid[i + 1, j + 1] + (1 - s) * t * grid[i, j + 1])
+
+
 def unroll_sheet(part: Part) -> FlatPart:
     """Unroll one sheet's ``surface_grid`` into a :class:`FlatPart`."""
     if part.surface_grid is None:
@@ -137,8 +148,10 @@ def unroll_sheet(part: Part) -> FlatPart:
     lengths_3d = polyline_lengths(grid_sides(grid))
     bends = bend_lines_of(uv, ruling_direction(grid))
     labels = place_labels(outline, [part.id, part.panel_id, "OUT"], angle=0.0)
+    holes = tuple(dataclasses.replace(h, centre=tuple(grid_point(uv, *h.centre)))
+                  for h in part.holes)
     return FlatPart(id=part.id, kind=part.kind, panel_id=part.panel_id, material=part.material,
-                    thickness=part.thickness, outline=outline, round_holes=tuple(part.holes),
+                    thickness=part.thickness, outline=outline, round_holes=holes,
                     bend_lines=bends, labels=labels, max_strain=strain,
                     edge_lengths_flat=lengths_flat, edge_lengths_3d=lengths_3d)
 

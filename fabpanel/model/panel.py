@@ -1,0 +1,429 @@
+"""One panel's steel parts, built in a worker process from plain data (arrays in, BREP out).
+
+Parts of a sandwich panel (ids ``P012-TOP``, ``-BOT``, ``-RIB-0..3``, ``-STF-0..3``):
+
+- **sheets**: each face of a sheet (outer and inner) is the developed grid moved along the
+  developed normals, trimmed at the four rib planes (:mod:`fabpanel.model.trim`); the solid is
+  sewn from the two faces and the ruled strips between their edges (planar, in the rib plane).
+- **ribs**: a flat plate per side in the side's rib plane, extruded into the panel by the rib
+  thickness, so back-to-back ribs of neighbours touch in that plane. Its outline runs along the
+  top sheet's inner face and the bottom sheet's upper face; where the sheet is bevelled against
+  the rib, the edge is taken at whichever face of the plate meets the sheet first, so the plate
+  never enters a sheet (a wedge of at most ``t_rib tan(bevel)`` is left for the weld). Ribs 0
+  and 2 run to the outer faces of ribs 1 and 3, which stop at the inner faces of ribs 0 and 2:
+  the corners are closed and no two ribs overlap.
+- **corner stiffeners**: at each corner, a flat plate across the corner through the points at
+  ``stiffener_offset`` along both sides (the thesis's construction, §7.3.2 d), in the plane
+  holding that chord and the panel normal at the corner, between the sheets, its ends at the
+  two ribs' inner faces. It faces the corner and is extruded away from it.
+- **bolt holes** (interior sides only: a boundary rib has no partner) at the stations of
+  :mod:`fabpanel.model.joints`, and **access openings** in the sheet chosen in the job beside
+  every bolt, drilled along the sheet normal.
+
+A cladding panel is the top sheet alone, untrimmed (no ribs to meet).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..data import Hole
+from ..errors import KernelError
+from ..geom.polygon import polygon_area
+from . import joints, occ
+from .trim import TrimmedFace, side_rows, trimmed_face
+
+#: points along each rib edge curve (top and bottom), corner to corner
+RIB_CURVE_POINTS = 65
+#: points along each stiffener edge
+STIFFENER_POINTS = 41
+#: points of sheet edges and plane sections that plate edges are interpolated from
+SECTION_POINTS = 257
+#: dense samples of sheet fibre grids per sample interval of the developed grid
+GRID_REFINE = 4
+#: clear distance an access opening keeps from ribs and stiffeners, mm
+ACCESS_MIN_CLEAR = 3.0
+#: points per access opening outline (a periodic cubic through 24 points is within 1e-4 mm of
+#: a 40 mm circle)
+HOLE_POINTS = 24
+
+
+def build_panel(payload: dict[str, Any]) -> dict[str, Any]:
+    """All parts of one panel (see the module docstring); returns part records (BREP bytes,
+    outlines, holes, tessellations) and the panel's measures and findings."""
+    pid = payload["panel_id"]
+    samples, normals = payload["samples"], payload["normals"]
+    planes = payload["planes"] / np.linalg.norm(payload["planes"][:, :3], axis=1, keepdims=True)
+    offsets = payload["offsets"]
+    k = samples.shape[0]
+    centre_normal = normals[k // 2, k // 2]
+    sandwich = payload["buildup"] == "sandwich"
+    trim = np.full(4, sandwich)
+    limit = payload["slide_limit"]
+    findings: list[tuple[str, str, str]] = []
+    measures: dict[str, Any] = {}
+
+    def face(offset: float, what: str) -> TrimmedFace:
+        result = trimmed_face(samples + offset * normals, centre_normal, planes, trim, limit,
+                              f"{pid}-{what}")
+        for side in np.flatnonzero(result.untrimmed):
+            findings.append(("sheet-not-trimmed", f"{pid}-{what[:3]}",
+                             (f"sheet face edge {side} left at the developed edge: its rib plane "
+                             f"meets the face only {limit:g}+ mm away (nearly tangent)")))
+        return result
+
+    top_outer, top_inner = face(offsets["top_outer"], "TOP outer"), face(offsets["top_inner"],
+                                                                           "TOP inner")
+    faces = {"top_outer": top_outer, "top_inner": top_inner}
+    bolts: dict[int, np.ndarray] = {}
+    if sandwich:
+        faces["bottom_upper"] = face(offsets["bottom_upper"], "BOT upper")
+        faces["bottom_lower"] = face(offsets["bottom_lower"], "BOT lower")
+        mid = (offsets["top_inner"] + offsets["bottom_upper"]) / 2
+        bolt = payload["bolt"]
+        for side in np.flatnonzero(payload["interior"]):
+            bolts[int(side)] = joints.bolt_centres(
+                side_rows(samples)[side], side_rows(normals)[side], planes[side], mid,
+                bolt["spacing"], bolt["edge_distance"])
+    measures["sheet_fit_error_mm"] = max(f.fit_error for f in faces.values())
+    measures["sheet_trim_slide_mm"] = max(float(f.slide.max()) for f in faces.values())
+
+    access = payload["bolt"]["access_sheet"] if sandwich and bolts else "none"
+    parts = [_sheet(f"{pid}-TOP", "sheet-top", top_outer, top_inner, payload["t_top"],
+                    payload["fibre"], k, access == "top", bolts, planes, payload)]
+    if sandwich:
+        parts.append(_sheet(f"{pid}-BOT", "sheet-bottom", faces["bottom_upper"],
+                            faces["bottom_lower"], payload["t_bot"], payload["fibre"], k,
+                            access == "bottom", bolts, planes, payload))
+        ribs, stiffeners = [], []
+        for side in range(4):
+            ribs.append(_rib(f"{pid}-RIB-{side}", side, planes, top_inner,
+                             faces["bottom_upper"], payload["t_rib"], bolts.get(side),
+                             payload["bolt"]["diameter"]))
+        for corner in range(4):
+            stiffeners.append(_stiffener(f"{pid}-STF-{corner}", corner, planes, top_outer,
+                                         top_inner, faces["bottom_upper"], payload))
+        parts += ribs + stiffeners
+        measures["rib_planarity_mm"] = [r["planarity"] for r in ribs]
+        measures["stiffener_planarity_mm"] = [s["planarity"] for s in stiffeners]
+        findings += _clearance_findings(pid, parts, bolts, planes, payload)
+    measures["bolts"] = int(sum(len(b) for b in bolts.values()))
+    measures["access_openings"] = int(sum(len(p["holes"]) for p in parts
+                                          if p["kind"].startswith("sheet")))
+    measures["valid"] = all(p["valid"] for p in parts)
+    edges = [side_curve(top_outer.surface, side, 129) for side in range(4)]
+    return {"panel_id": pid, "parts": parts, "measures": measures, "findings": findings,
+            "bolts": bolts, "top_edges": edges}
+
+
+# --------------------------------------------------------------------------------------------
+# sheets
+# --------------------------------------------------------------------------------------------
+def _sheet(name: str, kind: str, outer: TrimmedFace, inner: TrimmedFace, thickness: float,
+           fibre: str, k: int, with_access: bool, bolts: dict[int, np.ndarray],
+           planes: np.ndarray, payload: dict) -> dict:
+    """A sheet solid between two trimmed faces (``outer``: away from the ribs for the top
+    sheet, the face on the ribs for the bottom sheet), with its access openings."""
+    dense = GRID_REFINE * (k - 1) + 1
+    grid_a = occ.sample_surface(outer.surface, dense, dense)
+    grid_b = occ.sample_surface(inner.surface, dense, dense)
+    # "outer" and "inner" fibres: the sheet's face away from / towards the panel's ribs
+    cavity_face_first = kind == "sheet-bottom"
+    depth = {"mid": 0.5, "outer": 1.0 if cavity_face_first else 0.0,
+             "inner": 0.0 if cavity_face_first else 1.0}[fibre]
+    surface_grid = (1 - depth) * grid_a + depth * grid_b
+    mid_area = _grid_area((grid_a + grid_b) / 2)
+    holes: list[Hole] = []
+    openings = np.zeros((0, 3))
+    loops = []
+    if with_access and bolts:
+        bolt = payload["bolt"]
+        diameter = bolt["access_diameter"]
+        cavity = inner if kind == "sheet-top" else outer
+        aims = joints.merge_close(np.concatenate(
+            [joints.access_points(b, planes[s], payload["t_rib"], diameter)
+             for s, b in sorted(bolts.items())]), diameter + ACCESS_MIN_CLEAR)
+        uv = occ.project_to_surface(cavity.surface, aims)
+        openings, _, _ = occ.surface_derivatives(cavity.surface, uv)
+        axes = cavity.normals(uv)
+        loops = list(zip(hole_loops(outer.surface, openings, axes, diameter / 2, name),
+                         hole_loops(inner.surface, openings, axes, diameter / 2, name)))
+        holes = [Hole((float(u), float(v)), float(diameter), "access") for u, v in uv]
+        mid_area -= len(holes) * np.pi * diameter ** 2 / 4
+    solid = occ.slab(outer.surface, inner.surface, name, loops)
+    return {"id": name, "kind": kind, "thickness": thickness, "volume": occ.volume(solid),
+            "area": float(mid_area), "brep": occ.to_brep(solid), "surface_grid": surface_grid,
+            "holes": holes, "openings": openings, "valid": occ.is_valid(solid),
+            "clash_shape": ("slab", grid_a, grid_b)}
+
+
+def hole_loops(surface, centres: np.ndarray, axes: np.ndarray, radius: float, name: str,
+               points: int = HOLE_POINTS) -> np.ndarray:
+    """(h, points, 2) float: where round holes (axis through ``centres (h, 3)`` along ``axes``)
+    meet a surface, as parameter loops at equal angles around each axis (2D Newton per point:
+    the surface point whose offset from the axis is ``radius`` at that angle)."""
+    axes = axes / np.linalg.norm(axes, axis=1, keepdims=True)
+    helper = np.where(np.abs(axes[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    e1 = np.cross(axes, helper)
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(axes, e1)
+    angle = np.linspace(0.0, 2 * np.pi, points, endpoint=False)
+    h = len(centres)
+    target = np.stack([np.cos(angle), np.sin(angle)], axis=1) * radius       # (points, 2)
+    e1r, e2r = np.repeat(e1, points, axis=0), np.repeat(e2, points, axis=0)
+    goal = np.tile(target, (h, 1))
+    origin = np.repeat(centres, points, axis=0)
+    uv = np.repeat(occ.project_to_surface(surface, centres), points, axis=0)
+    for _ in range(30):
+        p, du, dv = occ.surface_derivatives(surface, uv)
+        rel = p - origin
+        f = np.stack([np.einsum("nd,nd->n", rel, e1r), np.einsum("nd,nd->n", rel, e2r)], 1) - goal
+        if np.abs(f).max() < 1e-7:
+            return uv.reshape(h, points, 2)
+        jac = np.stack([np.stack([np.einsum("nd,nd->n", e1r, du), np.einsum("nd,nd->n", e1r, dv)],
+                                 1),
+                        np.stack([np.einsum("nd,nd->n", e2r, du), np.einsum("nd,nd->n", e2r, dv)],
+                                 1)], axis=1)
+        uv -= np.linalg.solve(jac, f[..., None])[..., 0]
+    raise KernelError(f"access opening outline on {name} did not converge")
+
+
+def _grid_area(grid: np.ndarray) -> float:
+    """Area of a dense (a, b, 3) grid as two triangles per cell, mm2."""
+    a, b, c, d = grid[:-1, :-1], grid[1:, :-1], grid[1:, 1:], grid[:-1, 1:]
+    return float(0.5 * (np.linalg.norm(np.cross(b - a, c - a), axis=-1).sum()
+                        + np.linalg.norm(np.cross(c - a, d - a), axis=-1).sum()))
+
+
+def side_curve(surface, side: int, n: int) -> np.ndarray:
+    """(n, 3) float: the boundary iso-curve of side ``side`` of a surface fitted to a panel grid,
+    from corner ``side`` to corner ``side + 1``."""
+    return occ.surface_points(surface, *_side_uv(side, n))
+
+
+def _side_uv(side: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    t = np.linspace(0.0, 1.0, n)
+    return {0: (t, np.zeros(n)), 1: (np.ones(n), t), 2: (1 - t, np.ones(n)),
+            3: (np.zeros(n), 1 - t)}[side]
+
+
+# --------------------------------------------------------------------------------------------
+# ribs and stiffeners: flat plates
+# --------------------------------------------------------------------------------------------
+def _rib(name: str, side: int, planes: np.ndarray, top_inner: TrimmedFace,
+         bottom_upper: TrimmedFace, t_rib: float, bolts: np.ndarray | None,
+         bolt_diameter: float) -> dict:
+    """One rib plate in its side plane (see the module docstring)."""
+    plane = planes[side]
+    # the edges densely (as the plane sections), so interpolating them between stations does
+    # not cut chords into a convex sheet
+    upper = side_curve(top_inner.surface, side, SECTION_POINTS)
+    lower = side_curve(bottom_upper.surface, side, SECTION_POINTS)
+    frame = plane_frame(plane, upper[0], upper[-1] - upper[0])
+    span = float(np.linalg.norm(upper[-1] - upper[0]))
+    chains = [_section_edge(face, plane, frame, t_rib, span, top, name, curve, RIB_CURVE_POINTS)
+              for curve, face, top in ((upper, top_inner, True), (lower, bottom_upper, False))]
+    for other in ((side - 1) % 4, (side + 1) % 4):
+        # ribs 0 and 2 run to the outer faces of ribs 1 and 3, which stop at their inner faces
+        inset = 0.0 if side % 2 == 0 else t_rib
+        chains = _trim_chains(chains, frame, planes[other], inset, t_rib, name, other)
+    holes = []
+    if bolts is not None:
+        local = (np.c_[bolts, np.ones(len(bolts))] @ np.linalg.inv(frame).T)[:, :2]
+        holes = [(centre, bolt_diameter) for centre in local]
+    return _plate(name, "rib", chains, frame, t_rib, plane, holes)
+
+
+def _stiffener(name: str, corner: int, planes: np.ndarray, top_outer: TrimmedFace,
+               top_inner: TrimmedFace, bottom_upper: TrimmedFace, payload: dict) -> dict:
+    """The corner stiffener at ``corner`` (see the module docstring)."""
+    offset, t_stf, t_rib = payload["stiffener_offset"], payload["t_stf"], payload["t_rib"]
+    before, after = (corner - 1) % 4, corner
+    incoming = side_curve(top_outer.surface, before, 129)[::-1]
+    outgoing = side_curve(top_outer.surface, after, 129)
+    a, _ = joints.along_polyline(incoming, np.array([offset]))
+    b, _ = joints.along_polyline(outgoing, np.array([offset]))
+    a, b, tip = a[0], b[0], outgoing[0]
+    normal = top_outer.normals(np.array([_CORNER_UV[corner]]))[0]
+    z = np.cross(b - a, normal)
+    z /= np.linalg.norm(z)
+    if z @ (tip - a) > 0:
+        z = -z  # the plate's face looks at the corner and the plate stands away from it
+    plane = np.r_[z, z @ a]
+    frame = plane_frame(plane, a, b - a)
+    span = float(np.linalg.norm(b - a))
+    chains = []
+    for face, top in ((top_inner, True), (bottom_upper, False)):
+        chains.append(_section_edge(face, plane, frame, t_stf, span, top, name))
+    for other in (before, after):
+        chains = _trim_chains(chains, frame, planes[other], t_rib, t_stf, name, other)
+    return _plate(name, "stiffener", chains, frame, t_stf, plane, [])
+
+
+_CORNER_UV = ((0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0))
+
+
+def _plate(name: str, kind: str, chains: list[np.ndarray], frame: np.ndarray,
+           thickness: float, plane: np.ndarray, holes: list) -> dict:
+    top, bottom = (_drop_duplicates(chain, closed=False) for chain in chains)
+    outline = _drop_duplicates(np.r_[top, bottom[::-1]])
+    solid = occ.prism([top, np.array([top[-1], bottom[-1]]), bottom[::-1],
+                       np.array([bottom[0], top[0]])], frame, thickness, name, holes)
+    if polygon_area(outline) < 0:
+        outline = outline[::-1]
+    # both plate faces must be flat: every point of the edges bounding the two faces (the
+    # edges through the thickness skipped) against the plane and its offset
+    flatness = 0.0
+    for points in occ.edge_points(solid, per_edge=8):
+        dist = points @ plane[:3] - plane[3]
+        if abs(dist[-1] - dist[0]) > thickness / 2:
+            continue
+        flatness = max(flatness, float(np.minimum(np.abs(dist), np.abs(dist - thickness)).max()))
+    net = abs(polygon_area(outline)) - sum(np.pi * d ** 2 / 4 for _, d in holes)
+    return {"id": name, "kind": kind, "thickness": thickness,
+            "volume": occ.volume(solid, adaptive=False), "area": float(net), "brep": occ.to_brep(solid), "outline": outline, "frame": frame,
+            "holes": [Hole((float(c[0]), float(c[1])), float(d), "bolt") for c, d in holes],
+            "valid": occ.is_valid(solid), "planarity": flatness, "plane": plane,
+            "clash_shape": ("plate", outline, frame, thickness)}
+
+
+def _section_edge(face: TrimmedFace, plane: np.ndarray, frame: np.ndarray, thickness: float,
+                  span: float, top: bool, name: str, edge: np.ndarray | None = None,
+                  points: int = STIFFENER_POINTS) -> np.ndarray:
+    """(n, 2) float: a plate's edge against a sheet face, in the plate frame: the face's
+    sections with the plate's two faces (``edge (m, 3)``: the face's own boundary in the
+    plate's plane, used instead of the section there), keeping per station the one the plate
+    meets first (``top``: the plate lies below the face), so the plate touches the sheet along
+    one face edge and never enters it; a wedge of at most ``thickness x tan(bevel)`` is left
+    for the weld."""
+    profiles = []
+    for shift in (0.0, thickness):
+        if shift == 0.0 and edge is not None:
+            points_3d = edge
+        else:
+            points_3d = occ.plane_section(face.surface, np.r_[plane[:3], plane[3] + shift],
+                                          name=name)
+        local = (np.c_[points_3d, np.ones(len(points_3d))] @ np.linalg.inv(frame).T)[:, :2]
+        keep = (local[:, 0] > -span) & (local[:, 0] < 2 * span)
+        local = local[keep][np.argsort(local[keep][:, 0])]
+        if len(local) < 2:
+            raise KernelError(f"{name}: its plane does not cut the sheets across the corner")
+        profiles.append(local)
+    lo = max(p[0, 0] for p in profiles)
+    hi = min(p[-1, 0] for p in profiles)
+    xs = np.linspace(lo, hi, points)
+    heights = [np.interp(xs, p[:, 0], p[:, 1]) for p in profiles]
+    up = face.normals(np.array([[0.5, 0.5]]))[0] @ frame[:3, 1]
+    sign = 1.0 if up >= 0 else -1.0
+    pick = np.minimum if top else np.maximum
+    return np.c_[xs, sign * pick(sign * heights[0], sign * heights[1])]
+
+
+def _trim_chains(chains: list[np.ndarray], frame: np.ndarray, plane: np.ndarray, inset: float,
+                 thickness: float, name: str, other: int) -> list[np.ndarray]:
+    """Cut both edge chains of a plate (extruded ``thickness`` along the frame's z) where the
+    whole plate thickness stays ``inset`` mm inside ``plane`` (normal into the panel)."""
+    a, b, c = (plane[:3] @ frame[:3, i] for i in range(3))
+    limit = plane[3] + inset - plane[:3] @ frame[:3, 3] - min(0.0, c * thickness)
+    chains = [clip_polyline(chain, np.array([a, b]), limit) for chain in chains]
+    if min(len(chain) for chain in chains) < 2:
+        raise KernelError(f"outline of {name} vanished when trimmed at rib {other}; the panel "
+                          f"is too small for its ribs and stiffeners")
+    return chains
+
+
+def plane_frame(plane: np.ndarray, origin: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """(4, 4) float: frame on ``plane (4,)`` with z = the plane normal, x = ``direction``
+    projected into the plane, origin = ``origin`` projected onto the plane."""
+    z = plane[:3] / np.linalg.norm(plane[:3])
+    o = origin - (origin @ z - plane[3]) * z
+    x = direction - (direction @ z) * z
+    norm = np.linalg.norm(x)
+    if norm < 1e-9:
+        raise KernelError("plate direction is normal to its plane")
+    x /= norm
+    frame = np.eye(4)
+    frame[:3, 0], frame[:3, 1], frame[:3, 2], frame[:3, 3] = x, np.cross(z, x), z, o
+    return frame
+
+
+def clip_polyline(points: np.ndarray, normal: np.ndarray, offset: float) -> np.ndarray:
+    """(n', 2) float: the longest run of the open polyline ``points (n, 2)`` with
+    ``normal . p >= offset``, ended exactly on the line where it is cut."""
+    value = points @ normal - offset
+    inside = np.r_[False, value >= 0, False].astype(int)
+    starts = np.flatnonzero(np.diff(inside) == 1)
+    ends = np.flatnonzero(np.diff(inside) == -1)
+    if len(starts) == 0:
+        return points[:0]
+    longest = int(np.argmax(ends - starts))
+    i0, i1 = int(starts[longest]), int(ends[longest])
+    run = [points[i0:i1]]
+    if i0 > 0:
+        p, q, vp, vq = points[i0 - 1], points[i0], value[i0 - 1], value[i0]
+        run.insert(0, (p + (q - p) * (vp / (vp - vq)))[None])
+    if i1 < len(points):
+        p, q, vp, vq = points[i1 - 1], points[i1], value[i1 - 1], value[i1]
+        run.append((p + (q - p) * (vp / (vp - vq)))[None])
+    return np.concatenate(run)
+
+
+def _drop_duplicates(points: np.ndarray, closed: bool = True, eps: float = 1e-6) -> np.ndarray:
+    """Points without consecutive repeats (within ``eps`` mm)."""
+    if closed:
+        keep = np.linalg.norm(points - np.roll(points, -1, axis=0), axis=1) > eps
+        return points[keep]
+    keep = np.r_[True, np.linalg.norm(np.diff(points, axis=0), axis=1) > eps]
+    return points[keep]
+
+
+# --------------------------------------------------------------------------------------------
+# clearances
+# --------------------------------------------------------------------------------------------
+def _clearance_findings(pid: str, parts: list[dict], bolts: dict[int, np.ndarray],
+                        planes: np.ndarray, payload: dict) -> list[tuple[str, str, str]]:
+    """Bolt holes that do not fit their rib, access openings that run under a rib or a
+    stiffener: ``(code, part id, message)`` each."""
+    from shapely.geometry import Point, Polygon
+
+    findings = []
+    by_id = {p["id"]: p for p in parts}
+    d_bolt = payload["bolt"]["diameter"]
+    for side in bolts:
+        rib = by_id[f"{pid}-RIB-{side}"]
+        outline = Polygon(rib["outline"])
+        for hole in rib["holes"]:
+            margin = outline.exterior.distance(Point(hole.centre)) - hole.diameter / 2
+            if not outline.contains(Point(hole.centre)) or margin < d_bolt / 2:
+                findings.append(("bolt-clearance", rib["id"],
+                                 (f"bolt hole at {np.round(hole.centre, 1).tolist()} is "
+                                 f"{margin:.1f} mm from the rib edge (needs {d_bolt / 2:g} mm); "
+                                 "lower the bolt edge distance or raise the rib height")))
+    radius = payload["bolt"]["access_diameter"] / 2
+    t_rib = payload["t_rib"]
+    for sheet in (p for p in parts if p["kind"].startswith("sheet")):
+        for centre in sheet["openings"]:
+            for side in range(4):
+                clear = centre @ planes[side, :3] - planes[side, 3] - t_rib - radius
+                if clear < ACCESS_MIN_CLEAR:
+                    findings.append(("access-clash", sheet["id"], (f"access opening at "
+                                     f"{np.round(centre, 1).tolist()} runs under "
+                                     f"{pid}-RIB-{side} ({clear:.1f} mm clear)")))
+            for part in parts:
+                if part["kind"] != "stiffener":
+                    continue
+                frame, plane, t = part["frame"], part["plane"], part["thickness"]
+                along = (centre - frame[:3, 3]) @ frame[:3, 0]
+                xs = part["outline"][:, 0]
+                if along < xs.min() - radius or along > xs.max() + radius:
+                    continue
+                dist = centre @ plane[:3] - plane[3]
+                clear = max(-dist, dist - t) - radius
+                if clear < ACCESS_MIN_CLEAR:
+                    findings.append(("access-clash", sheet["id"], (f"access opening at "
+                                     f"{np.round(centre, 1).tolist()} runs under {part['id']} "
+                                     f"({clear:.1f} mm clear); move the stiffener "
+                                     "(stiffener_offset) or the bolts (edge_distance)")))
+    return findings

@@ -1,0 +1,207 @@
+"""Sheet faces trimmed at the rib planes: every sheet edge lies exactly in its rib plane.
+
+A developed panel's sample grid holds the sheet's design face; its other faces (the top sheet's
+inner face, the bottom sheet's faces) are the grid moved along the developed normals. Where the
+rib plane is bevelled against the normals (a cone's parallels: Joachimsthal), a face moved by
+``o`` along the normals leaves the plane by ``o sin(bevel)``: 150 mm below a 5° bevel, 13 mm. So
+each face is trimmed at the four rib planes on its own B-spline, extrapolated slightly beyond its
+samples where the plane lies outside:
+
+1. interpolate the face grid (degree 3, uniform parameters on the unit square);
+2. find the corners (two planes and the surface meet: 2D Newton) and, along each side, the
+   cross parameter where the surface meets that side's plane (1D Newton per station);
+3. fill the parameter square between the four trim curves with a Coons patch, evaluate the
+   surface there and interpolate that grid again: the new surface's boundary rows lie in the
+   planes, and a cubic interpolant of coplanar points stays in their plane (affine invariance).
+
+The fit error reported is the largest distance of the developed samples from the new surface,
+measured across it (the trim moves boundary samples along the surface, reported as the slide). Coons patches: Farin, "Curves and
+Surfaces for CAGD", chapter 22.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import KernelError
+from . import occ
+
+#: Newton stops when the surface point is this close to the plane, mm
+PLANE_TOLERANCE = 1e-7
+NEWTON_ITERATIONS = 30
+#: the trimmed face is refitted through this many points per sample interval
+REFIT_DENSITY = 2
+
+# per side: (parameter that runs along it, parameter across it, value of the latter on the side)
+_SIDES = ((0, 1, 0.0), (1, 0, 1.0), (0, 1, 1.0), (1, 0, 0.0))
+_CORNERS = np.array([(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)])
+
+
+class _TrimFailed(KernelError):
+    def __init__(self, message: str, sides: tuple[int, ...]) -> None:
+        super().__init__(message)
+        self.sides = sides
+
+
+@dataclass
+class TrimmedFace:
+    """A sheet face whose boundary lies in the rib planes.
+
+    surface : Geom_BSplineSurface over the unit square; side convention as
+        :class:`fabpanel.data.DevelopedPanels` (side 0 at v = 0, side 1 at u = 1 ...).
+    orient : +1 when ``dS/du x dS/dv`` points outward (along the developed normals).
+    fit_error : mm, refit against the trimmed source surface (cell centres).
+    slide : (4,) float, mm, how far each side's edge moved to reach its plane.
+    untrimmed : (4,) bool, sides asked to be trimmed that were left at the developed edge
+        (the plane does not meet the face near it, or only after moving it by more than the
+        slide limit: a rib plane nearly tangent to the sheet).
+    """
+
+    surface: object
+    orient: float
+    fit_error: float
+    slide: np.ndarray
+    untrimmed: np.ndarray
+
+    def normals(self, uv: np.ndarray) -> np.ndarray:
+        """(n, 3) float: outward unit normals at the parameters ``uv (n, 2)``."""
+        _, du, dv = occ.surface_derivatives(self.surface, uv)
+        n = np.cross(du, dv) * self.orient
+        return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def trimmed_face(grid: np.ndarray, normal: np.ndarray, planes: np.ndarray, trim: np.ndarray,
+                 slide_limit: float, name: str = "face") -> TrimmedFace:
+    """Interpolate ``grid (k, k, 3)`` and trim it at ``planes (4, 4)`` (unit normals) on the
+    sides where ``trim (4,) bool``; ``normal (3,)`` is the outward normal of the panel's middle
+    (it fixes ``orient``). A side whose plane does not meet the face, or only after moving the
+    edge by more than ``slide_limit`` mm, is left untrimmed (``TrimmedFace.untrimmed``)."""
+    mask = np.asarray(trim, dtype=bool).copy()
+    for _ in range(5):
+        try:
+            face = _trimmed_face(grid, normal, planes, mask, name)
+        except _TrimFailed as err:
+            mask[list(err.sides)] = False
+            continue
+        too_far = mask & (face.slide > slide_limit)
+        if too_far.any():
+            mask &= ~too_far
+            continue
+        face.untrimmed = np.asarray(trim, dtype=bool) & ~mask
+        return face
+    face = _trimmed_face(grid, normal, planes, np.zeros(4, bool), name)
+    face.untrimmed = np.asarray(trim, dtype=bool)
+    return face
+
+
+def _trimmed_face(grid: np.ndarray, normal: np.ndarray, planes: np.ndarray, trim: np.ndarray,
+                  name: str) -> TrimmedFace:
+    source, _ = occ.bspline_surface(grid, name)
+    k = grid.shape[0]
+    corners = np.array([_corner(source, c, planes, trim, name) for c in range(4)])
+    sides = []
+    for side, (along, across, value) in enumerate(_SIDES):
+        start, end = corners[side], corners[(side + 1) % 4]
+        uv = np.linspace(start, end, k)
+        if trim[side]:
+            uv = _onto_plane(source, uv, across, planes[side], f"{name} side {side}", side)
+        else:
+            uv[:, across] = value
+        sides.append(uv)
+    # refit at twice the sample density, so the new surface follows the source between the
+    # samples too (a refit through the k x k samples alone drifted 0.09 mm between them on a
+    # panel developed from a faceted mesh)
+    n = REFIT_DENSITY * (k - 1) + 1
+    params = coons(sides, np.linspace(0, 1, n), np.linspace(0, 1, n))
+    points, _, _ = occ.surface_derivatives(source, params.reshape(-1, 2))
+    new_grid = points.reshape(n, n, 3)
+    surface, _ = occ.bspline_surface(new_grid, name)
+    # fit error: the developed samples against the new surface, measured across the source
+    # surface (trimming moves the boundary samples along it, by ``slide``). Between the samples
+    # the two interpolants of a noisy grid (one from a faceted mesh) differ by up to 0.1 mm,
+    # which is no closer to the developed panel than either: the samples are what it is.
+    at_samples = new_grid[::REFIT_DENSITY, ::REFIT_DENSITY].reshape(-1, 3)
+    uniform = np.stack(np.meshgrid(np.linspace(0, 1, k), np.linspace(0, 1, k), indexing="ij"),
+                       axis=-1).reshape(-1, 2)
+    _, du, dv = occ.surface_derivatives(source, uniform)
+    across = np.cross(du, dv)
+    across /= np.linalg.norm(across, axis=1, keepdims=True)
+    fit = float(np.abs(np.einsum("nd,nd->n", at_samples - grid.reshape(-1, 3), across)).max())
+    slide = np.array([np.linalg.norm(side_rows(new_grid[::REFIT_DENSITY, ::REFIT_DENSITY])[s]
+                                     - side_rows(grid)[s], axis=1).max() for s in range(4)])
+    _, du, dv = occ.surface_derivatives(surface, np.array([[0.5, 0.5]]))
+    orient = 1.0 if float(np.cross(du[0], dv[0]) @ normal) >= 0 else -1.0
+    return TrimmedFace(surface, orient, fit, slide, np.zeros(4, bool))
+
+
+def side_rows(grid: np.ndarray) -> list[np.ndarray]:
+    """The four boundary rows of a (k, k, ...) grid, side ``s`` from corner ``s`` to ``s + 1``."""
+    return [grid[:, 0], grid[-1, :], grid[::-1, -1], grid[0, ::-1]]
+
+
+def coons(sides: list[np.ndarray], s: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """(len(s), len(t), 2) float: bilinearly blended Coons patch of four boundary polylines.
+
+    sides : four (k, 2) float arrays in side order (side ``i`` from corner ``i`` to ``i + 1``),
+        sampled at uniform fractions; ``s`` runs along side 0, ``t`` along side 3 reversed.
+    """
+    k = len(sides[0])
+    grid = np.linspace(0, 1, k)
+
+    def at(curve: np.ndarray, x: np.ndarray) -> np.ndarray:
+        return np.stack([np.interp(x, grid, curve[:, 0]), np.interp(x, grid, curve[:, 1])], 1)
+
+    bottom, top = at(sides[0], s), at(sides[2][::-1], s)
+    left, right = at(sides[3][::-1], t), at(sides[1], t)
+    c00, c10, c11, c01 = sides[0][0], sides[1][0], sides[2][0], sides[3][0]
+    S, T = s[:, None, None], t[None, :, None]
+    return ((1 - S) * left[None] + S * right[None] + (1 - T) * bottom[:, None]
+            + T * top[:, None]
+            - ((1 - S) * (1 - T) * c00 + S * (1 - T) * c10 + S * T * c11 + (1 - S) * T * c01))
+
+
+def _onto_plane(surface, uv: np.ndarray, across: int, plane: np.ndarray, what: str,
+                side: int) -> np.ndarray:
+    """Move each parameter pair along ``across`` until the surface point lies in the plane."""
+    uv = uv.copy()
+    for _ in range(NEWTON_ITERATIONS):
+        points, du, dv = occ.surface_derivatives(surface, uv)
+        f = points @ plane[:3] - plane[3]
+        if np.abs(f).max() < PLANE_TOLERANCE:
+            return uv
+        slope = (du if across == 0 else dv) @ plane[:3]
+        if np.any(np.abs(slope) < 1e-9):
+            break
+        uv[:, across] -= np.clip(f / slope, -0.25, 0.25)
+    raise _TrimFailed(f"{what}: the rib plane does not meet the sheet near its edge "
+                      "(plane nearly tangent to the sheet)", (side,))
+
+
+def _corner(surface, corner: int, planes: np.ndarray, trim: np.ndarray, name: str) -> np.ndarray:
+    """The corner's parameters: on the planes of the trimmed sides meeting there, on the
+    untrimmed sides' boundaries otherwise."""
+    uv = _CORNERS[corner].copy()
+    meeting = [(corner - 1) % 4, corner]
+    active = [s for s in meeting if trim[s]]
+    for s in meeting:
+        if not trim[s]:
+            uv[_SIDES[s][1]] = _SIDES[s][2]
+    if not active:
+        return uv
+    free = [_SIDES[s][1] for s in active]
+    for _ in range(NEWTON_ITERATIONS):
+        point, du, dv = occ.surface_derivatives(surface, uv[None])
+        f = np.array([point[0] @ planes[s][:3] - planes[s][3] for s in active])
+        if np.abs(f).max() < PLANE_TOLERANCE:
+            return uv
+        jac = np.array([[(du[0] if axis == 0 else dv[0]) @ planes[s][:3] for axis in free]
+                        for s in active])
+        try:
+            step = np.linalg.solve(jac, f)
+        except np.linalg.LinAlgError:
+            break
+        uv[free] -= np.clip(step, -0.25, 0.25)
+    raise _TrimFailed(f"{name}: corner {corner} could not be placed on its rib planes",
+                      tuple(active))
