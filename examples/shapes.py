@@ -520,6 +520,7 @@ deflection_limit = 300.0       # span / 300
 # dir = "{name}-fabpanel"{dir_pad}# default: <input name>-fabpanel beside the job file
 step = true
 glb = true
+rhino = true                   # model/design.3dm for Rhino and Grasshopper
 dxf = true
 report = true
 """

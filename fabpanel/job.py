@@ -221,6 +221,8 @@ class OutputSection(_Section):
     dir: str | None = None
     step: bool = True
     glb: bool = True
+    #: model/design.3dm for Rhino and Grasshopper (panel surfaces, outlines, labels on layers)
+    rhino: bool = True
     dxf: bool = True
     report: bool = True
 

@@ -263,10 +263,15 @@ def _write_outputs(result: Result, folder: Path, progress: Progress,
 
         (folder / "model" / "panels").mkdir(parents=True)
         if job.output.step:
-            write_step_assembly(result.model, folder / "model" / "assembly.step")
+            write_step_assembly(result.model, folder / "model" / "assembly.step",
+                                job.material.density)
             note(write_panel_steps(result.model, folder / "model" / "panels"), "model/panels")
         if job.output.glb:
             write_glb(result.model, folder / "model" / "preview.glb")
+        if job.output.rhino:
+            from .model.rhino import write_3dm
+
+            write_3dm(result.model, folder / "model" / "design.3dm")
     if result.flat is not None and job.output.dxf:
         (folder / "cut" / "parts").mkdir(parents=True)
         (folder / "cut" / "nests").mkdir(parents=True)

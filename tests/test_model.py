@@ -21,6 +21,7 @@ from fabpanel.model.build import buildup_offsets
 from fabpanel.model.clash import find_clashes, part_solid
 from fabpanel.model.joints import along_polyline
 from fabpanel.model.panel import clip_polyline
+from fabpanel.model.rhino import write_3dm
 
 R, LENGTH, ARC = 4000.0, 2400.0, np.pi / 3
 
@@ -58,7 +59,7 @@ def _joints(developed):
         for s in range(4):
             q = neighbours[p, s]
             if q > p:
-                yield p, s, int(q), [t for t in range(4) if neighbours[q, t] == p][0]
+                yield p, s, int(q), next(t for t in range(4) if neighbours[q, t] == p)
 
 
 def _circle_centres(shape):
@@ -236,6 +237,11 @@ def test_clash_check_finds_a_deliberate_overlap(model):
 
 def test_step_assembly_round_trip(model, tmp_path):
     path = write_step_assembly(model, tmp_path / "assembly.step")
+    text = path.read_text()
+    # material and part properties as STEP allows (material record, general properties)
+    assert "DESCRIPTIVE_REPRESENTATION_ITEM('material','S235')" in text
+    assert text.count("PROPERTY_DEFINITION('thickness_mm'") == len(model.parts)
+    assert text.count("COLOUR_RGB") >= 3
     shapes = read_step_parts(path)
     assert sorted(shapes) == sorted(p.id for p in model.parts)
     for part in model.parts:
@@ -310,3 +316,30 @@ def test_kernel_error_names_the_part():
     grid[..., 0] = np.nan
     with pytest.raises(KernelError, match="P099-TOP"):
         occ.bspline_surface(grid, "P099-TOP")
+
+
+def test_design_3dm_holds_exact_panel_surfaces_and_layers(model, developed, tmp_path):
+    import rhino3dm
+
+    path = write_3dm(model, tmp_path / "design.3dm")
+    doc = rhino3dm.File3dm.Read(str(path))
+    assert doc.Settings.ModelUnitSystem == rhino3dm.UnitSystem.Millimeters
+    layers = [layer.Name for layer in doc.Layers]
+    assert layers == ["panels", "outlines", "ribs", "stiffeners", "labels"]
+    by_layer = {}
+    for obj in doc.Objects:
+        by_layer.setdefault(layers[obj.Attributes.LayerIndex], []).append(obj)
+    m = len(developed.panel_ids)
+    assert len(by_layer["panels"]) == len(by_layer["outlines"]) == len(by_layer["labels"]) == m
+    assert len(by_layer["ribs"]) == len(by_layer["stiffeners"]) == 4 * m
+    for obj in by_layer["panels"]:
+        surface = obj.Geometry
+        p = developed.panel_ids.index(obj.Attributes.Name)
+        du, dv = surface.Domain(0), surface.Domain(1)
+        k = developed.samples.shape[1]
+        for i, j in ((0, 0), (k // 2, 3), (k - 1, k - 1)):
+            point = surface.PointAt(du.T0 + i / (k - 1) * (du.T1 - du.T0),
+                                    dv.T0 + j / (k - 1) * (dv.T1 - dv.T0))
+            np.testing.assert_allclose([point.X, point.Y, point.Z], developed.samples[p, i, j],
+                                       atol=1e-6)
+    assert sorted(dot.Geometry.Text for dot in by_layer["labels"]) == list(developed.panel_ids)

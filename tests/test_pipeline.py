@@ -55,7 +55,7 @@ def vault_run(tmp_path_factory, small_vault):
 def test_output_contract(vault_run):
     out = vault_run.out_dir
     for name in ("manifest.json", "bom.csv", "model/assembly.step", "model/preview.glb",
-                 "model/panels.obj", "model/developed.obj",
+                 "model/design.3dm", "model/panels.obj", "model/developed.obj",
                  "report/summary.json", "report/index.html"):
         assert (out / name).is_file(), name
     manifest = json.loads((out / "manifest.json").read_text())

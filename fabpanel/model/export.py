@@ -1,8 +1,13 @@
 """Model files: the STEP assembly (named, coloured parts grouped per panel), one STEP per panel,
 and a tessellated GLB preview; and re-reading a STEP file by part name for verification.
 
-Written through build123d's exporters (XCAF underneath): each part is a solid labelled with its
-part id and coloured by kind, children of one assembly node per panel labelled with the panel id.
+Each part is a solid labelled with its part id and coloured by kind, a child of one assembly node
+per panel labelled with the panel id. The STEP files (AP214, mm) carry what STEP allows beyond
+that: the material (name and density, as OCCT's XCAF material writes it) and per part a property
+set with kind, panel, material, thickness, volume, area and mass (``GENERAL_PROPERTY`` with
+descriptive and real representation items, OCCT's metadata mode). The XCAF document is built by
+build123d's ``_create_xde`` (names, colours, assembly structure; pinned with build123d < 0.14)
+and written by ``STEPCAFControl_Writer`` here, with the material and metadata modes on.
 """
 
 from __future__ import annotations
@@ -39,15 +44,69 @@ def _panel_compound(model: Model, panel_id: str) -> bd.Compound:
     return bd.Compound(children=children, label=panel_id)
 
 
-def write_step_assembly(model: Model, path: str | Path) -> Path:
-    """One STEP file (AP214, mm) with every part a named, coloured solid, grouped per panel."""
+def write_step_assembly(model: Model, path: str | Path, density: float | None = None) -> Path:
+    """One STEP file (AP214, mm) with every part a named, coloured solid, grouped per panel,
+    with material and part properties (see the module docstring). ``density``: kg/mm3 for the
+    material record (default: from the parts' mass and volume)."""
     path = Path(path)
     panels = [_panel_compound(model, pid) for pid in model.developed.panel_ids
               if model.parts_of(pid)]
-    assembly = bd.Compound(children=panels, label="fabpanel")
-    if not bd.export_step(assembly, str(path)):
-        raise KernelError(f"STEP export of the assembly to {path} failed")
+    _write_step(bd.Compound(children=panels, label="fabpanel"), model.parts, path, density)
     return path
+
+
+def _write_step(assembly: bd.Compound, parts: tuple[Part, ...] | list[Part], path: Path,
+                density: float | None = None) -> None:
+    from build123d.exporters3d import _create_xde
+    from OCP.collections import Sequence_TDF_Label
+    from OCP.IFSelect import IFSelect_ReturnStatus
+    from OCP.Message import Message, Message_Gravity
+    from OCP.STEPCAFControl import STEPCAFControl_Writer
+    from OCP.STEPControl import STEPControl_StepModelType
+    from OCP.TCollection import TCollection_ExtendedString, TCollection_HAsciiString
+    from OCP.TDataStd import TDataStd_Name, TDataStd_NamedData
+    from OCP.XCAFDoc import XCAFDoc_DocumentTool
+    from OCP.XSControl import XSControl_WorkSession
+
+    for printer in Message.DefaultMessenger_s().Printers():
+        printer.SetTraceLevel(Message_Gravity.Message_Fail)
+    doc = _create_xde(assembly, bd.Unit.MM, auto_naming=False)
+    shapes = XCAFDoc_DocumentTool.ShapeTool_s(doc.Main())
+    materials = XCAFDoc_DocumentTool.MaterialTool_s(doc.Main())
+    labels = Sequence_TDF_Label()
+    shapes.GetShapes(labels)
+    by_id = {part.id: part for part in parts}
+    material_labels = {}
+    for index in range(1, labels.Length() + 1):
+        label = labels.Value(index)
+        name = TDataStd_Name()
+        if not label.FindAttribute(TDataStd_Name.GetID_s(), name):
+            continue
+        part = by_id.get(name.Get().ToExtString())
+        if part is None:
+            continue
+        if part.material not in material_labels:
+            rho = density if density is not None else part.mass / max(part.volume, 1e-300)
+            material_labels[part.material] = materials.AddMaterial(
+                TCollection_HAsciiString(part.material), TCollection_HAsciiString("steel"),
+                rho * 1e9, TCollection_HAsciiString("density"),
+                TCollection_HAsciiString("kg/m3"))
+        materials.SetMaterial(label, material_labels[part.material])
+        data = TDataStd_NamedData.Set_s(label)
+        for key, value in (("kind", part.kind), ("panel", part.panel_id),
+                           ("material", part.material)):
+            data.SetString(TCollection_ExtendedString(key), TCollection_ExtendedString(value))
+        for key, value in (("thickness_mm", part.thickness), ("volume_mm3", part.volume),
+                           ("area_mm2", part.area), ("mass_kg", part.mass)):
+            data.SetReal(TCollection_ExtendedString(key), float(value))
+    writer = STEPCAFControl_Writer(XSControl_WorkSession(), False)
+    for mode in (writer.SetColorMode, writer.SetNameMode, writer.SetLayerMode,
+                 writer.SetMaterialMode, writer.SetMetadataMode):
+        mode(True)
+    if not writer.Transfer(doc, STEPControl_StepModelType.STEPControl_AsIs):
+        raise KernelError(f"STEP transfer for {path.name} failed")
+    if writer.Write(str(path)) != IFSelect_ReturnStatus.IFSelect_RetDone:
+        raise KernelError(f"STEP export to {path} failed")
 
 
 def write_panel_steps(model: Model, folder: str | Path) -> dict[str, str]:
@@ -59,8 +118,7 @@ def write_panel_steps(model: Model, folder: str | Path) -> dict[str, str]:
         if not model.parts_of(pid):
             continue
         name = f"{pid}.step"
-        if not bd.export_step(_panel_compound(model, pid), str(folder / name)):
-            raise KernelError(f"STEP export of panel {pid} failed")
+        _write_step(_panel_compound(model, pid), model.parts_of(pid), folder / name)
         written[pid] = name
     return written
 

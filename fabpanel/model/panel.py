@@ -283,7 +283,8 @@ def _plate(name: str, kind: str, chains: list[np.ndarray], frame: np.ndarray,
         flatness = max(flatness, float(np.minimum(np.abs(dist), np.abs(dist - thickness)).max()))
     net = abs(polygon_area(outline)) - sum(np.pi * d ** 2 / 4 for _, d in holes)
     return {"id": name, "kind": kind, "thickness": thickness,
-            "volume": occ.volume(solid, adaptive=False), "area": float(net), "brep": occ.to_brep(solid), "outline": outline, "frame": frame,
+            "volume": occ.volume(solid, adaptive=False), "area": float(net),
+            "brep": occ.to_brep(solid), "outline": outline, "frame": frame,
             "holes": [Hole((float(c[0]), float(c[1])), float(d), "bolt") for c, d in holes],
             "valid": occ.is_valid(solid), "planarity": flatness, "plane": plane,
             "clash_shape": ("plate", outline, frame, thickness)}

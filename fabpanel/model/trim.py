@@ -15,8 +15,8 @@ samples where the plane lies outside:
    planes, and a cubic interpolant of coplanar points stays in their plane (affine invariance).
 
 The fit error reported is the largest distance of the developed samples from the new surface,
-measured across it (the trim moves boundary samples along the surface, reported as the slide). Coons patches: Farin, "Curves and
-Surfaces for CAGD", chapter 22.
+measured across it (the trim moves boundary samples along the surface, reported as the slide).
+Coons patches: Farin, "Curves and Surfaces for CAGD", chapter 22.
 """
 
 from __future__ import annotations
