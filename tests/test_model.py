@@ -255,6 +255,16 @@ def test_step_assembly_round_trip(model, tmp_path):
             # every vertex and edge point on one of the two plate faces, except the points
             # of the edges through the thickness
             assert np.all((flat < 0.05) | ((dist > 0.05) & (dist < part.thickness - 0.05)))
+    # bolt holes of back-to-back ribs, re-imported: coaxial within 0.1 mm
+    developed = model.developed
+    for p, s, q, t in _joints(developed):
+        plane = developed.side_planes[p, s] / np.linalg.norm(developed.side_planes[p, s, :3])
+        centres = []
+        for panel, side in ((p, s), (q, t)):
+            found = _circle_centres(shapes[f"{developed.panel_ids[panel]}-RIB-{side}"])
+            centres.append(found[np.abs(found @ plane[:3] - plane[3]) < 1e-3])
+        assert len(centres[0]) == len(centres[1]) >= 2
+        assert np.linalg.norm(centres[0][:, None] - centres[1][None], axis=2).min(1).max() < 0.1
     files = write_panel_steps(model, tmp_path / "panels")
     assert files == {pid: f"{pid}.step" for pid in model.developed.panel_ids}
     assert sorted(read_step_parts(tmp_path / "panels" / "P002.step")) == \

@@ -153,13 +153,11 @@ def _model_metrics(developed: DevelopedPanels, parts: list[Part], results: list,
             issues.append(Issue("sheet-fit", f"B-spline sheet faces miss the trimmed developed "
                                 f"surface by {meas['sheet_fit_error_mm']:.3f} mm "
                                 f"(> {tol.sheet_fit} mm)", pid))
-        for kind, key in (("RIB", "rib_planarity_mm"), ("STF", "stiffener_planarity_mm")):
-            for index, value in enumerate(meas.get(key, [])):
-                planarity.append(value)
-                if value > tol.rib_planarity:
-                    issues.append(Issue("plate-not-planar", f"plate faces deviate {value:.3f} mm "
-                                        f"from flat (> {tol.rib_planarity} mm)",
-                                        f"{pid}-{kind}-{index}"))
+        for part_id, value in meas.get("plate_planarity_mm", {}).items():
+            planarity.append(value)
+            if value > tol.rib_planarity:
+                issues.append(Issue("plate-not-planar", f"plate faces deviate {value:.3f} mm "
+                                    f"from flat (> {tol.rib_planarity} mm)", part_id))
         for code, part_id, message in result["findings"]:
             issues.append(Issue(code, message, part_id))
         if not meas["valid"]:

@@ -45,6 +45,8 @@ SECTION_POINTS = 257
 GRID_REFINE = 4
 #: clear distance an access opening keeps from ribs and stiffeners, mm
 ACCESS_MIN_CLEAR = 3.0
+#: corners opening wider than this get no stiffener (degrees): the two ribs are nearly one line
+MAX_STIFFENED_ANGLE = 150.0
 #: points per access opening outline (a periodic cubic through 24 points is within 1e-4 mm of
 #: a 40 mm circle)
 HOLE_POINTS = 24
@@ -102,12 +104,29 @@ def build_panel(payload: dict[str, Any]) -> dict[str, Any]:
             ribs.append(_rib(f"{pid}-RIB-{side}", side, planes, top_inner,
                              faces["bottom_upper"], payload["t_rib"], bolts.get(side),
                              payload["bolt"]["diameter"]))
-        for corner in range(4):
-            stiffeners.append(_stiffener(f"{pid}-STF-{corner}", corner, planes, top_outer,
-                                         top_inner, faces["bottom_upper"], payload))
+        lengths = [float(np.linalg.norm(np.diff(row, axis=0), axis=1).sum())
+                   for row in side_rows(samples)]
+        short = [s for s in range(4) if lengths[s] < 2 * payload["stiffener_offset"] + 1.0]
+        if short:
+            # the stiffeners at both ends of a side would meet or cross
+            findings.append(("stiffeners-skipped", pid, (f"no corner stiffeners: side(s) "
+                             f"{short} shorter than twice the stiffener offset "
+                             f"({payload['stiffener_offset']:g} mm); lower "
+                             "[sandwich] stiffener_offset or enlarge the panels")))
+        for corner in range(4 if not short else 0):
+            name = f"{pid}-STF-{corner}"
+            angle = _corner_angle(samples, corner)
+            if angle > MAX_STIFFENED_ANGLE:
+                findings.append(("stiffener-skipped", name, (f"corner opens {angle:.0f} degrees "
+                                 f"(> {MAX_STIFFENED_ANGLE:g}): nothing to stiffen")))
+                continue
+            try:
+                stiffeners.append(_stiffener(name, corner, planes, top_outer, top_inner,
+                                             faces["bottom_upper"], payload))
+            except KernelError as err:
+                findings.append(("stiffener-skipped", name, f"not built: {err}"))
         parts += ribs + stiffeners
-        measures["rib_planarity_mm"] = [r["planarity"] for r in ribs]
-        measures["stiffener_planarity_mm"] = [s["planarity"] for s in stiffeners]
+        measures["plate_planarity_mm"] = {r["id"]: r["planarity"] for r in ribs + stiffeners}
         findings += _clearance_findings(pid, parts, bolts, planes, payload)
     measures["bolts"] = int(sum(len(b) for b in bolts.values()))
     measures["access_openings"] = int(sum(len(p["holes"]) for p in parts
@@ -236,6 +255,15 @@ def _rib(name: str, side: int, planes: np.ndarray, top_inner: TrimmedFace,
     return _plate(name, "rib", chains, frame, t_rib, plane, holes)
 
 
+def _corner_angle(samples: np.ndarray, corner: int) -> float:
+    """Interior angle of the developed grid at a corner, degrees."""
+    rows = side_rows(samples)
+    incoming, outgoing = rows[(corner - 1) % 4], rows[corner]
+    a, b = incoming[-2] - incoming[-1], outgoing[1] - outgoing[0]
+    cos = a @ b / (np.linalg.norm(a) * np.linalg.norm(b))
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+
+
 def _stiffener(name: str, corner: int, planes: np.ndarray, top_outer: TrimmedFace,
                top_inner: TrimmedFace, bottom_upper: TrimmedFace, payload: dict) -> dict:
     """The corner stiffener at ``corner`` (see the module docstring)."""
@@ -309,9 +337,12 @@ def _section_edge(face: TrimmedFace, plane: np.ndarray, frame: np.ndarray, thick
         local = (np.c_[points_3d, np.ones(len(points_3d))] @ np.linalg.inv(frame).T)[:, :2]
         keep = (local[:, 0] > -span) & (local[:, 0] < 2 * span)
         local = local[keep][np.argsort(local[keep][:, 0])]
-        if len(local) < 2:
-            raise KernelError(f"{name}: its plane does not cut the sheets across the corner")
-        profiles.append(local)
+        if len(local) >= 2:
+            profiles.append(local)
+        elif edge is None or shift == 0.0:
+            raise KernelError(f"{name}: its plane does not cut the sheet")
+        # else: a rib plane nearly tangent to the sheet: its inner face misses the sheet, the
+        # edge alone is used (the clash check measures what that leaves)
     lo = max(p[0, 0] for p in profiles)
     hi = min(p[-1, 0] for p in profiles)
     xs = np.linspace(lo, hi, points)

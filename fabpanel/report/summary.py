@@ -40,7 +40,7 @@ def summarise(result, timings: dict[str, float], structure: dict) -> dict:
             "mass_kg": round(result.model.mass, 2),
             "mass_by_kind_kg": {k: round(v, 2) for k, v in mass_by_kind.items()},
             "mass_per_m2_kg": round(result.model.mass / (result.surface.area / 1e6), 2),
-            "checks": {k: v for k, v in result.model.metrics.items() if k != "per_panel"}}
+            "checks": {k: v for k, v in result.model.metrics.items() if k != "panels"}}
     if result.flat is not None:
         summary["flat"] = {k: v for k, v in result.flat.metrics.items() if k != "per_part"}
     if result.nests is not None:
