@@ -278,7 +278,7 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
         reactions[case.name] = {"description": case_info[case.name],
                                 "applied_N": _r(total, 2), "reaction_N": _r(reaction, 2),
                                 "on_support_nodes_N": _r(applied[supp].sum(axis=0), 2),
-                                "error": float(error), "ok": bool(error <= REACTION_TOLERANCE)}
+                                "error": _sig(error, 2), "ok": bool(error <= REACTION_TOLERANCE)}
         if error > REACTION_TOLERANCE:
             issues.append(Issue("reaction-mismatch", f"load case {case.name}: reactions differ "
                                 f"from the applied load by {error:.3%}", severity="error"))
@@ -328,7 +328,7 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
         shape = shapes[j]
         amp = np.linalg.norm(0.5 * (shape[bottom][..., :3] + shape[top][..., :3]), axis=-1)
         panels, share = mode_extent(amp.max(axis=1), shell.panel, len(panel_ids))
-        modes.append({"mode": rank + 1, "factor": float(factors[j]),
+        modes.append({"mode": rank + 1, "factor": _sig(factors[j], 4),
                       "panels": [panel_ids[p] for p in panels[:20]],
                       "panel_count": int(len(panels))})
         if rank == 0:
@@ -381,7 +381,7 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
         "supports": {"mode": st.supports, "nodes": int(len(shell.supports)),
                      "fixed": "translations (pinned)"},
         "mass": {"model_kg": round(fe_mass, 2), "parts_kg": round(parts_mass, 2),
-                 "lumped_stiffeners_kg": round(lumped, 2), "error": float(mass_error),
+                 "lumped_stiffeners_kg": round(lumped, 2), "error": _sig(mass_error, 3),
                  "tolerance": MASS_TOLERANCE, "ok": mass_ok},
         "load_cases": reactions,
         "combinations": {"ULS": [c.name for c in uls], "SLS": [c.name for c in sls]},
@@ -401,8 +401,8 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
                      "selected_by": "largest compressive membrane force of the ULS "
                                     "combinations",
                      "factors": [m["factor"] for m in modes[:MIN_POSITIVE_MODES]],
-                     "all_factors": [float(f) for f in factors],
-                     "required": round(required, 3), "first": first,
+                     "all_factors": [_sig(f, 4) for f in factors],
+                     "required": round(required, 3), "first": _sig(first, 4),
                      "modes": modes[:max(MIN_POSITIVE_MODES, 10)],
                      "ok": checks["buckling"]},
         "checks": checks,
@@ -465,6 +465,15 @@ def _part_of(shell: ShellModel, e: int, panel_ids, p: int) -> str:
 def _divisions(shell: ShellModel, panel_ids) -> float:
     per_panel = (shell.group == 0).sum() / max(len(panel_ids), 1)
     return round(math.sqrt(per_panel))
+
+
+def _sig(value: float, digits: int) -> float:
+    """``value`` to ``digits`` significant digits. Results are rounded where CalculiX's own
+    round-off shows: its eigenvalues vary in the 7th digit between runs of the same deck."""
+    value = float(value)
+    if value == 0 or not math.isfinite(value):
+        return value
+    return round(value, digits - 1 - int(math.floor(math.log10(abs(value)))))
 
 
 def _r(values, digits: int) -> list:

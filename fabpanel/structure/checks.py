@@ -171,7 +171,7 @@ def mode_extent(amplitude: np.ndarray, panel: np.ndarray, n_panels: int,
     for column in range(panel.shape[1]):
         ok = panel[:, column] >= 0
         np.maximum.at(per_panel, panel[ok, column], amplitude[ok])
-    share = per_panel / max(per_panel.max(), 1e-300)
+    share = np.round(per_panel / max(per_panel.max(), 1e-300), 2)
     involved = np.nonzero(share >= threshold)[0]
-    involved = involved[np.argsort(-share[involved])]
+    involved = involved[np.argsort(-share[involved], kind="stable")]
     return involved, share[involved]
