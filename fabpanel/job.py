@@ -280,7 +280,7 @@ class Job:
     (internal units: mm, MPa, kg/mm3, s).
     """
 
-    __slots__ = ("settings", "base_dir", "source")
+    __slots__ = ("base_dir", "settings", "source")
 
     def __init__(self, settings: _JobModel | None = None, base_dir: str | Path = ".",
                  source: str | Path | None = None, **sections: dict[str, Any]):

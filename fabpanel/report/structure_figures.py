@@ -122,24 +122,24 @@ def structure_section(result) -> str:
     if not summary.get("analysed"):
         parts.append(f"<p><b>Not analysed:</b> {html.escape(str(summary.get('reason')))}</p>")
         return "".join(parts)
-    ok = lambda flag: "OK" if flag else "FAILS"  # noqa: E731
+    ok = lambda flag: "OK" if flag else "FAILS"
     m, d, s, b = (summary[k] for k in ("mass", "deflection", "stress", "buckling"))
+    mesh = summary["mesh"]
+    reactions = "; ".join(f"{k}: {v['error']:.4%}" for k, v in summary["load_cases"].items())
     rows = [
-        ("model", f"{summary['mesh']['elements']} S8R, {summary['mesh']['nodes']} nodes, "
-                  f"{summary['mesh']['elements_per_side']} per panel side, "
-                  f"{summary['supports']['nodes']} pinned nodes ({summary['supports']['mode']})"),
-        ("mass", f"{m['model_kg']} kg in the model, {m['parts_kg']} kg of parts "
-                 f"({m['error']:+.3%}): {ok(m['ok'])}"),
-        ("reactions", "; ".join(f"{k}: {v['error']:.4%}" for k, v in
-                                summary["load_cases"].items())
-         + f": {ok(summary['checks']['reactions'])}"),
-        ("deflection (SLS)", f"{d['max_mm']} mm = {d['ratio']} at {d['panel']} "
-                             f"({d['combination']}); limit {d['limit_mm']} mm: {ok(d['ok'])}"),
-        ("von Mises (ULS)", f"{s['max_von_mises_MPa']} MPa, utilisation {s['utilisation']} at "
-                            f"{s['part']} ({s['combination']}): {ok(s['ok'])}"),
-        ("buckling", f"factors {', '.join(f'{f:.3g}' for f in b['factors'])} under "
-                     f"{b['combination']}; required {b['required']:.3g}: {ok(b['ok'])}"),
-        ("stiffeners", summary["mesh"]["stiffeners"]),
+        ("model", (f"{mesh['elements']} S8R, {mesh['nodes']} nodes, "
+                   f"{mesh['elements_per_side']} per panel side, "
+                   f"{summary['supports']['nodes']} pinned nodes ({summary['supports']['mode']})")),
+        ("mass", (f"{m['model_kg']} kg in the model, {m['parts_kg']} kg of parts "
+                  f"({m['error']:+.3%}): {ok(m['ok'])}")),
+        ("reactions", f"{reactions}: {ok(summary['checks']['reactions'])}"),
+        ("deflection (SLS)", (f"{d['max_mm']} mm = {d['ratio']} at {d['panel']} "
+                              f"({d['combination']}); limit {d['limit_mm']} mm: {ok(d['ok'])}")),
+        ("von Mises (ULS)", (f"{s['max_von_mises_MPa']} MPa, utilisation {s['utilisation']} at "
+                             f"{s['part']} ({s['combination']}): {ok(s['ok'])}")),
+        ("buckling", (f"factors {', '.join(f'{f:.3g}' for f in b['factors'])} under "
+                      f"{b['combination']}; required {b['required']:.3g}: {ok(b['ok'])}")),
+        ("stiffeners", mesh["stiffeners"]),
     ]
     parts.append(_table(rows))
     if structure is not None and structure.shell is not None:

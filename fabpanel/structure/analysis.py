@@ -327,10 +327,10 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
     for rank, j in enumerate(positive):
         shape = shapes[j]
         amp = np.linalg.norm(0.5 * (shape[bottom][..., :3] + shape[top][..., :3]), axis=-1)
-        panels, share = mode_extent(amp.max(axis=1), shell.panel, len(panel_ids))
+        panels, _ = mode_extent(amp.max(axis=1), shell.panel, len(panel_ids))
         modes.append({"mode": rank + 1, "factor": _sig(factors[j], 4),
                       "panels": [panel_ids[p] for p in panels[:20]],
-                      "panel_count": int(len(panels))})
+                      "panel_count": len(panels)})
         if rank == 0:
             mode_shape = _node_values(shell, 0.5 * (shape[bottom][..., :3] + shape[top][..., :3]))
             mode_shape /= max(np.linalg.norm(mode_shape, axis=1).max(), 1e-300)
@@ -368,17 +368,17 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
         # everything that depends on the machine, under "seconds" (as the other stages)
         "seconds": {"static": round(run.seconds, 2), "buckling": round(brun.seconds, 2),
                     "total": round(seconds, 2)},
-        "mesh": {"elements": shell.n_elements, "S8R": int(len(shell.quads)),
-                 "S6": int(len(shell.triangles)), "nodes": int(len(shell.nodes)),
+        "mesh": {"elements": shell.n_elements, "S8R": len(shell.quads),
+                 "S6": len(shell.triangles), "nodes": len(shell.nodes),
                  "elements_per_side": int(_divisions(shell, panel_ids)),
-                 "knots": int(len(knots)), "knots_off_junctions": int(len(stray)),
+                 "knots": len(knots), "knots_off_junctions": len(stray),
                  "groups": {g.name: {"thickness_mm": g.thickness,
                                      "density_factor": round(g.density_factor, 5),
                                      "elements": int((shell.group == i).sum())}
                             for i, g in enumerate(shell.groups)},
                  "stiffeners": ("mass lumped on the panel corner lines, stiffness not modelled"
                                 if lumped > 0 else "none in the model")},
-        "supports": {"mode": st.supports, "nodes": int(len(shell.supports)),
+        "supports": {"mode": st.supports, "nodes": len(shell.supports),
                      "fixed": "translations (pinned)"},
         "mass": {"model_kg": round(fe_mass, 2), "parts_kg": round(parts_mass, 2),
                  "lumped_stiffeners_kg": round(lumped, 2), "error": _sig(mass_error, 3),
@@ -473,7 +473,7 @@ def _sig(value: float, digits: int) -> float:
     value = float(value)
     if value == 0 or not math.isfinite(value):
         return value
-    return round(value, digits - 1 - int(math.floor(math.log10(abs(value)))))
+    return round(value, digits - 1 - math.floor(math.log10(abs(value))))
 
 
 def _r(values, digits: int) -> list:

@@ -65,7 +65,8 @@ def require_ccx() -> str:
 def ccx_version(executable: str) -> str:
     """The version line ccx prints with ``-v`` ("2.20"), or "" if it says none."""
     try:
-        out = subprocess.run([executable, "-v"], capture_output=True, text=True, timeout=20)
+        out = subprocess.run([executable, "-v"], capture_output=True, text=True, timeout=20,
+                             check=False)
     except (OSError, subprocess.TimeoutExpired):
         return ""
     found = re.search(r"[Vv]ersion\s+([\d.]+)", out.stdout + out.stderr)
@@ -232,7 +233,8 @@ def run_ccx(deck: Path, threads: int = 1, timeout: float | None = None,
     try:
         with log_path.open("w") as handle:
             proc = subprocess.run([executable, "-i", stem.name], cwd=stem.parent, env=env,
-                                  stdout=handle, stderr=subprocess.STDOUT, timeout=timeout)
+                                  stdout=handle, stderr=subprocess.STDOUT, timeout=timeout,
+                                  check=False)
     except subprocess.TimeoutExpired as err:
         raise SolverError(f"CalculiX did not finish {deck.name} within {timeout:g} s; use a "
                           f"coarser [structure] element_size or a longer timeout") from err
@@ -275,7 +277,7 @@ def read_dat(path: Path) -> DatResults:
         result.mass.append(float(match.group(1)))
     block = text.split("B U C K L I N G   F A C T O R   O U T P U T")
     if len(block) > 1:
-        rows = re.findall(rf"^\s+(\d+)\s+({_FLOAT})\s*$", block[-1], re.M)
+        rows = re.findall(rf"^\s+(\d+)\s+({_FLOAT})\s*$", block[-1], re.MULTILINE)
         result.buckling = np.array([float(v) for _, v in rows])
     return result
 
