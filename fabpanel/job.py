@@ -204,8 +204,12 @@ class LoadsSection(_Section):
 
     snow: Pressure = "0.56 kN/m2"
     wind: Pressure = "0.8 kN/m2"
-    #: horizontal wind direction (x, y); both signs are checked
+    #: horizontal wind direction (x, y); both signs are checked (pressure and suction on the
+    #: faces the wind meets first, as the thesis)
     wind_direction: tuple[float, float] = (1.0, 0.0)
+    #: also the wind blowing against ``wind_direction`` (other faces; one more static case,
+    #: about a quarter more CalculiX time)
+    wind_opposite: bool = False
     gamma_g: float = Field(default=1.2, gt=0)
     gamma_q: float = Field(default=1.5, gt=0)
     #: knock-down on the linear buckling factor (1/6: a factor of 6 is required)

@@ -159,8 +159,9 @@ def _sheet_edge_nodes(shell, developed, sides, n) -> np.ndarray:
 
 def load_cases(shell: ShellModel, job) -> tuple[list[ccx.LoadCase], dict]:
     """Characteristic cases: ``G`` (self-weight, lumped stiffener masses included), ``S``
-    (snow on the horizontal projection of the top sheet), ``W1``/``W2`` (wind along
-    ``wind_direction`` and against it, on the top sheet faces it meets first)."""
+    (snow on the horizontal projection of the top sheet), ``W`` (wind along
+    ``wind_direction`` on the top-sheet faces it meets first; with ``wind_opposite`` ``W1``
+    and ``W2``, along and against it). Each wind case is combined in both signs."""
     loads = job.loads
     top = shell.group == 0
     cases = [ccx.LoadCase("G", gravity=np.array([0.0, 0.0, -GRAVITY]))]
@@ -176,7 +177,8 @@ def load_cases(shell: ShellModel, job) -> tuple[list[ccx.LoadCase], dict]:
 
             raise InputError("[loads] wind_direction must not be (0, 0)")
         d /= np.linalg.norm(d)
-        for name, sign in (("W1", 1.0), ("W2", -1.0)):
+        directions = (("W1", 1.0), ("W2", -1.0)) if loads.wind_opposite else (("W", 1.0),)
+        for name, sign in directions:
             exposed = wind_exposed(shell, top, sign * d)
             cases.append(ccx.LoadCase(name, forces=area_forces(shell, loads.wind, sign * d,
                                                                exposed, projected=True)))
