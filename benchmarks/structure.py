@@ -1,7 +1,8 @@
 """The structure stage on the examples, and the shell benchmarks it is validated with.
 
     .venv/bin/python benchmarks/structure.py [NAME ...] [--element-size LENGTH]
-                                             [--max-elements N] [--threads N] [--no-validation]
+                                             [--max-elements N] [--threads N]
+                                             [--develop METHOD] [--no-validation]
 
 Runs each example job (default: barrel-vault and pavilion) up to the build stage, then the
 structural check with the job's default element size (or the one given). Prints one line per
@@ -33,6 +34,9 @@ def main() -> None:
     parser.add_argument("--element-size", default=None)
     parser.add_argument("--max-elements", type=int, default=None)
     parser.add_argument("--threads", type=int, default=None)
+    parser.add_argument("--develop", default=None,
+                        help="develop method for the build (the structure model does not "
+                             "depend on it; 'project' is the fastest way to a model)")
     parser.add_argument("--no-validation", action="store_true")
     args = parser.parse_args()
     runs = []
@@ -47,6 +51,8 @@ def main() -> None:
             settings["threads"] = args.threads
         if settings:
             job = job.replace(structure=settings)
+        if args.develop:
+            job = job.replace(develop={"method": args.develop})
         started = time.perf_counter()
         result = fp.run(job, until="build", write=False)
         build_seconds = time.perf_counter() - started
@@ -59,7 +65,7 @@ def main() -> None:
             print(f"{name}: not analysed: {s['reason']}", file=sys.stderr)
             continue
         record = {
-            "example": name, "panels": len(result.model.developed.panel_ids),
+            "example": name, "develop": job.develop.method, "panels": len(result.model.developed.panel_ids),
             "elements": s["mesh"]["elements"], "nodes": s["mesh"]["nodes"],
             "elements_per_side": s["mesh"]["elements_per_side"],
             "knots": s["mesh"]["knots"], "equations": structure.metrics["equations"],

@@ -391,7 +391,8 @@ def _rib_areas(model, developed, settings, areas) -> tuple[float, float]:
     samples = np.asarray(developed.samples, float)
     trim = 0.0
     for s in range(4):
-        line = np.stack([developed.side_samples(p, s) for p in range(len(samples))])
+        line = [samples[:, :, 0], samples[:, -1, :], samples[:, ::-1, -1],
+                samples[:, 0, ::-1]][s]                              # (m, k, 3) corner s -> s+1
         for end, other in ((0, (s - 1) % 4), (-1, (s + 1) % 4)):
             inward = line[:, 1] - line[:, 0] if end == 0 else line[:, -2] - line[:, -1]
             inward /= np.linalg.norm(inward, axis=-1, keepdims=True)
