@@ -141,6 +141,8 @@ def structure_section(result) -> str:
                       f"{b['combination']}; required {b['required']:.3g}: {ok(b['ok'])}")),
         ("stiffeners", mesh["stiffeners"]),
     ]
+    if b.get("note"):
+        rows.append(("buckling note", b["note"]))
     parts.append(_table(rows))
     if structure is not None and structure.shell is not None:
         for figure, alt in ((deformed_figure, "deformed shape"),

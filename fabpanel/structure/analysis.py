@@ -50,6 +50,9 @@ MASS_TOLERANCE = 0.005
 REACTION_TOLERANCE = 0.001
 #: at most this many elements per panel side when the size is chosen automatically
 AUTO_MAX_DIVISIONS = 4
+#: fewer elements per panel side than this cannot resolve a sheet's local buckling between its
+#: ribs (one half-wave per panel; S8R plates need about 4 per half-wave for a few per cent)
+LOCAL_BUCKLING_DIVISIONS = 4
 #: at least this many positive buckling factors are reported (thesis: "not fewer than 5")
 MIN_POSITIVE_MODES = 5
 
@@ -340,6 +343,13 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
         issues.append(Issue("few-buckling-modes", f"only {len(positive)} positive buckling "
                             f"factors among {modes_asked} requested"))
     first = float(factors[positive[0]]) if len(positive) else math.inf
+    divisions = int(_divisions(shell, panel_ids))
+    local_note = None
+    if divisions < LOCAL_BUCKLING_DIVISIONS:
+        local_note = (f"{divisions} element(s) per panel side cannot show the sheets buckling "
+                      f"between their ribs: the factors cover the global modes only; refine "
+                      f"with [structure] element_size (about a quarter of the panel size)")
+        issues.append(Issue("coarse-buckling-mesh", local_note))
 
     # ---- per panel -------------------------------------------------------------------------
     util_el = vm_el.max(axis=0) / fy
@@ -372,7 +382,7 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
                     "total": round(seconds, 2)},
         "mesh": {"elements": shell.n_elements, "S8R": len(shell.quads),
                  "S6": len(shell.triangles), "nodes": len(shell.nodes),
-                 "elements_per_side": int(_divisions(shell, panel_ids)),
+                 "elements_per_side": divisions,
                  "knots": len(knots), "knots_off_junctions": len(stray),
                  "groups": {g.name: {"thickness_mm": g.thickness,
                                      "density_factor": round(g.density_factor, 5),
@@ -406,6 +416,7 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
                      "all_factors": [_sig(f, 4) for f in factors],
                      "required": round(required, 3), "first": _sig(first, 4),
                      "modes": modes[:max(MIN_POSITIVE_MODES, 10)],
+                     "note": local_note,
                      "ok": checks["buckling"]},
         "checks": checks,
         "ok": all(checks.values()),
