@@ -92,7 +92,8 @@ def _job_for(source: Path, units: str | None, panel_size: str | None) -> Job:
 
 
 def export_run(source: Path, out: Path | None, units: str | None, panel_size: str | None,
-               until: str, jobs: int | None, force: bool, quiet: bool):
+               until: str, jobs: int | None, force: bool, quiet: bool,
+               require_fem: bool = False):
     from .pipeline import run
 
     logging.basicConfig(level=logging.WARNING if quiet else logging.INFO,
@@ -100,6 +101,8 @@ def export_run(source: Path, out: Path | None, units: str | None, panel_size: st
     # findings reach the user as issues in the summary; log lines would break the one-line errors
     logging.getLogger().setLevel(logging.ERROR)
     job = _job_for(source, units, panel_size)
+    if require_fem:
+        job = job.replace(structure={"required": True})
     reporter = _Reporter(quiet)
     try:
         result = run(job, out_dir=out, until=until, jobs=jobs, force=force, progress=reporter)
@@ -114,6 +117,10 @@ def export_run(source: Path, out: Path | None, units: str | None, panel_size: st
                        f"{parts['mass_kg']} kg", err=True)
         if "nests" in summary:
             click.echo(f"  {summary['nests']['plates']} plates", err=True)
+        if "structure" in result.stages_run:
+            from .structure import describe
+
+            click.echo(f"  structure: {describe(result.structure)}", err=True)
         errors = [i for i in result.issues if i.severity == "error"]
         for issue in errors[:10]:
             click.echo(f"  issue: {issue.message}", err=True)
@@ -132,6 +139,9 @@ _export_options = [
     click.option("--jobs", type=click.IntRange(min=1), default=None,
                  help="Worker processes for per-panel work (default: all cores)."),
     click.option("--force", is_flag=True, help="Replace an existing output folder."),
+    click.option("--require-fem", "require_fem", is_flag=True,
+                 help="Fail (exit 2) when CalculiX is missing instead of skipping the "
+                      "structural check."),
     click.option("--quiet", is_flag=True, help="Print nothing but errors."),
     click.option("--debug", is_flag=True, help="Show tracebacks."),
 ]
@@ -146,10 +156,10 @@ def _with_export_options(func):
 @main.command()
 @click.argument("source", type=click.Path(path_type=Path))
 @_with_export_options
-def export(source, out, units, panel_size, until, jobs, force, quiet, debug):
+def export(source, out, units, panel_size, until, jobs, force, require_fem, quiet, debug):
     """Run the pipeline on INPUT (a surface file) or JOB.toml and write the output folder."""
     try:
-        export_run(source, out, units, panel_size, until, jobs, force, quiet)
+        export_run(source, out, units, panel_size, until, jobs, force, quiet, require_fem)
     except Exception as err:  # noqa: BLE001 - the CLI turns every error into an exit code
         _fail(err, debug)
 

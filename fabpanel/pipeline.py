@@ -16,7 +16,7 @@ import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -24,6 +24,9 @@ from . import __version__
 from .data import DevelopedPanels, FlatParts, Model, Nests, PanelLayout, Surface
 from .errors import InputError, Issue
 from .job import STAGES, Job, Stage
+
+if TYPE_CHECKING:
+    from .structure import Structure
 
 log = logging.getLogger(__name__)
 
@@ -61,6 +64,7 @@ class Result:
     model: Model | None = None
     flat: FlatParts | None = None
     nests: Nests | None = None
+    structure: Structure | None = None
     summary: dict = field(default_factory=dict)
     issues: tuple[Issue, ...] = ()
     stages_run: tuple[Stage, ...] = ()
@@ -179,12 +183,20 @@ def _run_stages(job: Job, surface: Surface, folder: Path | None, until: Stage, j
         progress.finish("cut", timings["cut"], f"{len(flat.parts)} flat parts on "
                         f"{len(nests.plates)} plates")
 
-    structure = {"analysed": False,
-                 "reason": "structural analysis with CalculiX is not part of this version yet",
+    structure = {"analysed": False, "reason": f"not run (--until {until})",
                  "ccx_found": shutil.which("ccx") is not None}
     if stop >= STAGES.index("structure"):
+        from .structure import analyse, describe
+
+        analysis, timings["structure"] = _timed(
+            progress, "structure", None,
+            lambda: analyse(state["model"], job,
+                            folder=folder / "structure" if folder is not None else None))
+        issues += analysis.issues
+        state["structure"] = analysis
+        structure = analysis.summary
         ran.append("structure")
-        progress.finish("structure", 0.0, "not analysed (" + structure["reason"] + ")")
+        progress.finish("structure", timings["structure"], describe(analysis))
 
     result = Result(job=job, out_dir=folder, issues=tuple(issues), stages_run=tuple(ran),
                     **{k: v for k, v in state.items()})

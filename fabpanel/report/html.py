@@ -117,6 +117,11 @@ def write_report(result, folder: Path) -> None:
                 _table([(k, v) for k, v in summary.items() if not isinstance(v, dict)]
                        + [("input", summary["input"])])]
     for key in ("panels", "developability", "parts", "flat", "nests", "structure", "timings_s"):
+        if key == "structure" and key in summary:
+            from .structure_figures import structure_section
+
+            sections.append(structure_section(result))
+            continue
         if key in summary:
             sections.append(f"<h2>{key.capitalize()}</h2>")
             sections.append(_table(list(summary[key].items())))

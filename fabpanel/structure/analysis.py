@@ -1,0 +1,493 @@
+"""The structure stage: a preliminary structural check of the panelled shell with CalculiX.
+
+As the thesis does with Karamba3D (§7.3), on CalculiX: a shell model of all sheets and ribs
+(:mod:`.mesh`), pinned at the lowest nodes or the job's support regions; self-weight, snow on the
+horizontal projection and wind as a projected load on the faces it meets first, in both signs
+(:mod:`.loads`); one linear static step per characteristic case, combined to ULS
+(1.2 G + 1.5 Q) and SLS (unfactored); linear buckling (``*BUCKLE``) of the ULS combination with
+the largest compressive membrane force, a factor of 6 required (knock-down 1/6, Hoogenboom);
+checks of mass, reactions, deflection (span / 300), von Mises utilisation and buckling.
+
+Two CalculiX runs: ``static.inp`` (all cases) and ``buckle.inp`` (the governing combination),
+kept with their results in the output folder's ``structure/``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import FabpanelError, Issue
+from . import ccx
+from .checks import (
+    check_supports,
+    combinations,
+    layout_boundary_loops,
+    lowest_nodes,
+    membrane_compression,
+    mode_extent,
+    relative_error,
+    rib_nodes_of_sides,
+    span_of,
+    von_mises,
+)
+from .loads import GRAVITY, area_forces, gravity_forces, wind_exposed
+from .mesh import ShellModel, sandwich_model, sandwich_settings
+
+log = logging.getLogger(__name__)
+
+#: mass of the shell model against the sum of the part masses (holes and trims are modelled,
+#: so what is left is meshing: the thesis found 0.07 %)
+MASS_TOLERANCE = 0.005
+#: reactions against the applied load per case (the thesis's Tables 5-7)
+REACTION_TOLERANCE = 0.001
+#: at most this many elements per panel side when the size is chosen automatically
+AUTO_MAX_DIVISIONS = 4
+#: fewer elements per panel side than this cannot resolve a sheet's local buckling between its
+#: ribs (one half-wave per panel; S8R plates need about 4 per half-wave for a few per cent)
+LOCAL_BUCKLING_DIVISIONS = 4
+#: at least this many positive buckling factors are reported (thesis: "not fewer than 5")
+MIN_POSITIVE_MODES = 5
+
+
+@dataclass(frozen=True)
+class Structure:
+    """What the structure stage found.
+
+    analysed : False when CalculiX is missing or failed (``summary["reason"]`` says why).
+    summary : JSON-ready checks (the ``structure`` entry of ``report/summary.json``).
+    shell : the shell model analysed.
+    displacement : (n, 3) float, mm: shell node displacements of the SLS combination with the
+        largest displacement.
+    utilisation : (E,) float: largest ULS von Mises utilisation of every element.
+    mode_shape : (n, 3) float: the first positive buckling mode, largest amplitude 1.
+    panel_ids : the panels, for ``shell.panel`` indices.
+    files : files written into the output folder's ``structure/``.
+    """
+
+    analysed: bool
+    summary: dict
+    shell: ShellModel | None = None
+    displacement: np.ndarray | None = None
+    utilisation: np.ndarray | None = None
+    mode_shape: np.ndarray | None = None
+    panel_ids: tuple[str, ...] = ()
+    files: tuple[str, ...] = ()
+    issues: tuple[Issue, ...] = ()
+    metrics: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return self.summary
+
+
+def not_analysed(reason: str, issue: Issue | None = None, **extra) -> Structure:
+    return Structure(False, {"analysed": False, "reason": reason, **extra},
+                     issues=(issue,) if issue else ())
+
+
+# --------------------------------------------------------------------------------------------
+# model set-up
+# --------------------------------------------------------------------------------------------
+def side_lengths(developed) -> np.ndarray:
+    """(m, 4) float: polyline length of every panel side, mm."""
+    s = np.asarray(developed.samples, float)
+    sides = [s[:, :, 0], s[:, -1, :], s[:, ::-1, -1], s[:, 0, ::-1]]
+    return np.stack([np.linalg.norm(np.diff(x, axis=1), axis=-1).sum(axis=1) for x in sides], 1)
+
+
+def choose_divisions(developed, job) -> int:
+    """Elements per panel side: from ``[structure] element_size`` when given, otherwise the
+    finest count up to :data:`AUTO_MAX_DIVISIONS` whose element count fits ``max_elements``
+    (at least one)."""
+    st = job.structure
+    lengths = side_lengths(developed)
+    if st.element_size is not None:
+        return int(np.clip(math.ceil(float(np.median(lengths)) / st.element_size), 1, 32))
+    m = len(lengths)
+    sandwich = job.sandwich.buildup == "sandwich"
+    neighbours = np.asarray(developed.layout.side_neighbours)
+    rib_sides = int(((neighbours < 0) | (np.arange(m)[:, None] < neighbours)).sum())
+    best = 1
+    for n in range(1, AUTO_MAX_DIVISIONS + 1):
+        count = m * n * n * (2 if sandwich else 1) + (n * rib_sides if sandwich else 0)
+        if count <= st.max_elements:
+            best = n
+    return best
+
+
+def shell_of(model, job) -> ShellModel:
+    """The shell model of a built :class:`~fabpanel.data.Model` with its supports."""
+    developed = model.developed
+    n = choose_divisions(developed, job)
+    shell = sandwich_model(developed, sandwich_settings(job, n), model.parts)
+    st = job.structure
+    if st.supports == "lowest":
+        supports = lowest_nodes(shell.nodes, st.support_band)
+        what = f"[structure] supports = \"lowest\" (band {st.support_band:g} mm)"
+    else:
+        layout = developed.layout
+        loops = layout_boundary_loops(np.asarray(layout.quads), np.asarray(layout.side_neighbours),
+                                      np.asarray(layout.vertices))
+        chosen = loops if st.supports == "boundary" else loops[1:]
+        what = f"[structure] supports = \"{st.supports}\""
+        if not chosen:
+            from ..errors import GeometryError
+
+            raise GeometryError(f"{what}: the layout has no openings; use \"lowest\" or "
+                                f"\"boundary\"")
+        sides = np.concatenate(chosen)
+        if job.sandwich.buildup == "sandwich":
+            supports = rib_nodes_of_sides(shell, sides)
+        else:
+            supports = _sheet_edge_nodes(shell, developed, sides, n)
+    check_supports(shell.nodes, supports, what)
+    return shell.replace(supports=supports)
+
+
+def _sheet_edge_nodes(shell, developed, sides, n) -> np.ndarray:
+    """Cladding (no ribs): the sheet nodes along the given panel sides."""
+    from scipy.spatial import cKDTree
+
+    pts = np.concatenate([developed.side_samples(p, s) for p, s in sides])
+    d, idx = cKDTree(shell.nodes).query(pts)
+    return np.unique(idx[d < 0.5 * float(np.ptp(shell.nodes, axis=0).max()) / max(n, 1)])
+
+
+def load_cases(shell: ShellModel, job) -> tuple[list[ccx.LoadCase], dict]:
+    """Characteristic cases: ``G`` (self-weight, lumped stiffener masses included), ``S``
+    (snow on the horizontal projection of the top sheet), ``W`` (wind along
+    ``wind_direction`` on the top-sheet faces it meets first; with ``wind_opposite`` ``W1``
+    and ``W2``, along and against it). Each wind case is combined in both signs."""
+    loads = job.loads
+    top = shell.group == 0
+    cases = [ccx.LoadCase("G", gravity=np.array([0.0, 0.0, -GRAVITY]))]
+    info = {"G": "self-weight (g = 9.81 m/s2)"}
+    if loads.snow > 0:
+        cases.append(ccx.LoadCase("S", forces=area_forces(shell, loads.snow, (0, 0, -1), top,
+                                                          projected=True)))
+        info["S"] = f"snow {loads.snow * 1e3:g} kN/m2 on the horizontal projection"
+    if loads.wind > 0:
+        d = np.r_[np.asarray(loads.wind_direction, float), 0.0]
+        if np.linalg.norm(d) == 0:
+            from ..errors import InputError
+
+            raise InputError("[loads] wind_direction must not be (0, 0)")
+        d /= np.linalg.norm(d)
+        directions = (("W1", 1.0), ("W2", -1.0)) if loads.wind_opposite else (("W", 1.0),)
+        for name, sign in directions:
+            exposed = wind_exposed(shell, top, sign * d)
+            cases.append(ccx.LoadCase(name, forces=area_forces(shell, loads.wind, sign * d,
+                                                               exposed, projected=True)))
+            info[name] = (f"wind {loads.wind * 1e3:g} kN/m2 blowing along ({sign * d[0]:+.2f}, "
+                          f"{sign * d[1]:+.2f}), projected, on {int(exposed.sum())} exposed "
+                          f"top-sheet elements; combined as pressure (+) and suction (-)")
+    return cases, info
+
+
+# --------------------------------------------------------------------------------------------
+# the stage
+# --------------------------------------------------------------------------------------------
+def analyse(model, job, folder: str | Path | None = None, threads: int | None = None
+            ) -> Structure:
+    """Stage: the structural check of a built :class:`~fabpanel.data.Model` (module docstring).
+
+    folder : where the decks and results are kept (created); default a temporary folder.
+    threads : CalculiX threads (``[structure] threads`` wins; default all cores).
+
+    Without CalculiX, or when it fails, returns ``analysed = False`` with the reason and an
+    issue, unless ``[structure] required``: then raises
+    :class:`~fabpanel.structure.ccx.CcxMissing` / :class:`~fabpanel.errors.SolverError`.
+    """
+    st = job.structure
+    executable = ccx.find_ccx()
+    if executable is None:
+        reason = f"CalculiX (ccx) was not found on the PATH; {ccx.INSTALL_HINT}"
+        if st.required:
+            raise ccx.CcxMissing(reason)
+        log.warning("structure not analysed: %s", reason)
+        return not_analysed(reason, Issue("ccx-missing", "structure not analysed: " + reason),
+                            ccx_found=False)
+    # the thread count does not follow --jobs: SPOOLES's result may differ in the last digits
+    # with the thread count, and a job must give the same output whatever --jobs is
+    threads = st.threads or threads or os.cpu_count() or 1
+    try:
+        if folder is None:
+            with tempfile.TemporaryDirectory(prefix="fabpanel-ccx-") as tmp:
+                return _analyse(model, job, Path(tmp), threads, executable, keep=False)
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        return _analyse(model, job, folder, threads, executable, keep=True)
+    except FabpanelError as err:
+        if st.required:
+            raise
+        reason = f"{type(err).__name__}: {err}"
+        log.error("structure not analysed: %s", reason)
+        return not_analysed(reason, Issue("structure-failed", "structure not analysed: " + str(err),
+                                          severity="error"), ccx_found=True)
+
+
+def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool) -> Structure:
+    started = time.perf_counter()
+    st, loads = job.structure, job.loads
+    developed = model.developed
+    panel_ids = tuple(developed.panel_ids)
+    shell = shell_of(model, job)
+    cases, case_info = load_cases(shell, job)
+    names = [c.name for c in cases]
+    issues: list[Issue] = []
+
+    # ---- static cases ----------------------------------------------------------------------
+    deck = ccx.write_deck(shell, folder / "static.inp", cases, title="fabpanel static cases")
+    run = ccx.run_ccx(deck, threads, st.timeout, executable)
+    dat = ccx.read_dat(run.dat)
+    frd = ccx.read_frd(run.frd)
+    bottom, top = ccx.surface_nodes(frd, shell.n_elements)
+    disp = [a for _, s, a in sorted(frd.results("DISP"), key=lambda r: r[1])]
+    stress = [a for _, s, a in sorted(frd.results("STRESS"), key=lambda r: r[1])]
+    if len(disp) != len(cases) or len(stress) != len(cases) or len(dat.forces) != len(cases):
+        raise ccx.SolverError(f"CalculiX wrote {len(disp)} displacement and {len(dat.forces)} "
+                              f"reaction blocks for {len(cases)} load cases")
+    knots = ccx.read_knots(deck)
+    junction = np.zeros(len(shell.nodes), bool)
+    junction[shell.quads[shell.side[: len(shell.quads)] >= 0].ravel()] = True
+    stray = knots[~junction[knots]] if len(knots) else knots
+    if len(stray):
+        issues.append(Issue("stray-knots", f"CalculiX made {len(stray)} knots away from the "
+                            f"rib/sheet junctions (flipped or kinked sheet elements stiffen the "
+                            f"model there)", severity="warning"))
+    u_el = np.stack([0.5 * (d[bottom][..., :3] + d[top][..., :3]) for d in disp])  # (C,E,8,3)
+    s_bot = np.stack([s[bottom] for s in stress])                                   # (C,E,8,6)
+    s_top = np.stack([s[top] for s in stress])
+
+    # ---- mass and reactions ----------------------------------------------------------------
+    parts_mass = float(sum(p.mass for p in model.parts))
+    lumped = float(shell.lumped_mass.sum()) if shell.lumped_mass is not None else 0.0
+    fe_mass = dat.mass[0] * 1e3 + lumped
+    mass_error = (fe_mass - parts_mass) / parts_mass if parts_mass > 0 else 0.0
+    supp = np.zeros(len(shell.nodes), bool)
+    supp[shell.supports] = True
+    reactions = {}
+    for c, case in enumerate(cases):
+        applied = gravity_forces(shell, case.gravity) if case.gravity is not None \
+            else case.forces
+        total = applied.sum(axis=0)
+        reaction = dat.forces[c] - applied[supp].sum(axis=0)
+        error = relative_error(-reaction, total)
+        reactions[case.name] = {"description": case_info[case.name],
+                                "applied_N": _r(total, 2), "reaction_N": _r(reaction, 2),
+                                "on_support_nodes_N": _r(applied[supp].sum(axis=0), 2),
+                                "error": _sig(error, 2), "ok": bool(error <= REACTION_TOLERANCE)}
+        if error > REACTION_TOLERANCE:
+            issues.append(Issue("reaction-mismatch", f"load case {case.name}: reactions differ "
+                                f"from the applied load by {error:.3%}", severity="error"))
+    if abs(mass_error) > MASS_TOLERANCE:
+        issues.append(Issue("mass-mismatch", f"shell model mass {fe_mass:.1f} kg differs from "
+                            f"the parts' {parts_mass:.1f} kg by {mass_error:.2%}",
+                            severity="error"))
+
+    # ---- combinations ----------------------------------------------------------------------
+    combos = combinations(names, loads.gamma_g, loads.gamma_q)
+    uls = [c for c in combos if c.kind == "ULS"]
+    sls = [c for c in combos if c.kind == "SLS"]
+    f_uls = np.stack([c.factors for c in uls])
+    f_sls = np.stack([c.factors for c in sls])
+    vm = np.concatenate([von_mises(np.einsum("kc,cesj->kesj", f_uls, s_bot)),
+                         von_mises(np.einsum("kc,cesj->kesj", f_uls, s_top))], axis=2)
+    vm_el = vm.max(axis=2)                                                  # (K, E)
+    fy = shell.material.fy
+    disp_sls = np.linalg.norm(np.einsum("kc,ceaj->keaj", f_sls, u_el), axis=-1)  # (K, E, 8)
+    k_u, e_u = np.unravel_index(np.argmax(vm_el), vm_el.shape)
+    k_d, e_d, a_d = np.unravel_index(np.argmax(disp_sls), disp_sls.shape)
+    span = st.span or span_of(shell.nodes, shell.supports)
+    limit = span / loads.deflection_limit
+    max_disp = float(disp_sls[k_d, e_d, a_d])
+    max_vm = float(vm_el[k_u, e_u])
+    areas = shell.element_areas()
+    compression = np.stack([membrane_compression(np.einsum("c,cesj->esj", c.factors, s_bot),
+                                                 np.einsum("c,cesj->esj", c.factors, s_top),
+                                                 shell.thickness, areas).sum() for c in uls])
+    governing = uls[int(np.argmax(compression))]
+
+    # ---- buckling --------------------------------------------------------------------------
+    buckle_case = ccx.combine(cases, list(governing.factors), governing.name)
+    modes_asked = st.buckling_modes
+    factors, shapes, brun = _buckle(shell, buckle_case, folder, modes_asked, threads, st,
+                                    executable)
+    if (factors > 0).sum() < MIN_POSITIVE_MODES and modes_asked < 4 * st.buckling_modes:
+        modes_asked *= 2
+        factors, shapes, brun = _buckle(shell, buckle_case, folder, modes_asked, threads, st,
+                                        executable)
+    positive = np.nonzero(factors > 0)[0]
+    positive = positive[np.argsort(factors[positive])]
+    required = 1.0 / loads.buckling_knockdown
+    modes = []
+    mode_shape = None
+    for rank, j in enumerate(positive):
+        shape = shapes[j]
+        amp = np.linalg.norm(0.5 * (shape[bottom][..., :3] + shape[top][..., :3]), axis=-1)
+        panels, _ = mode_extent(amp.max(axis=1), shell.panel, len(panel_ids))
+        modes.append({"mode": rank + 1, "factor": _sig(factors[j], 4),
+                      "panels": [panel_ids[p] for p in panels[:20]],
+                      "panel_count": len(panels)})
+        if rank == 0:
+            mode_shape = _node_values(shell, 0.5 * (shape[bottom][..., :3] + shape[top][..., :3]))
+            mode_shape /= max(np.linalg.norm(mode_shape, axis=1).max(), 1e-300)
+    if len(positive) < MIN_POSITIVE_MODES:
+        issues.append(Issue("few-buckling-modes", f"only {len(positive)} positive buckling "
+                            f"factors among {modes_asked} requested"))
+    first = float(factors[positive[0]]) if len(positive) else math.inf
+    divisions = int(_divisions(shell, panel_ids))
+    local_note = None
+    if divisions < LOCAL_BUCKLING_DIVISIONS:
+        local_note = (f"{divisions} element(s) per panel side cannot show the sheets buckling "
+                      f"between their ribs: the factors cover the global modes only; refine "
+                      f"with [structure] element_size (about a quarter of the panel size)")
+        issues.append(Issue("coarse-buckling-mesh", local_note))
+
+    # ---- per panel -------------------------------------------------------------------------
+    util_el = vm_el.max(axis=0) / fy
+    disp_el = disp_sls.max(axis=(0, 2))
+    per_panel = {}
+    for p, pid in enumerate(panel_ids):
+        mine = np.nonzero((shell.panel[:, 0] == p) | (shell.panel[:, 1] == p))[0]
+        e = mine[np.argmax(util_el[mine])]
+        per_panel[pid] = {"utilisation": round(float(util_el[e]), 4),
+                          "part": _part_of(shell, e, panel_ids, p),
+                          "displacement_mm": round(float(disp_el[mine].max()), 3),
+                          "buckling_modes": [m["mode"] for m in modes[:MIN_POSITIVE_MODES]
+                                             if pid in m["panels"]]}
+    mass_ok = abs(mass_error) <= MASS_TOLERANCE
+    reactions_ok = all(r["ok"] for r in reactions.values())
+    checks = {
+        "mass": mass_ok, "reactions": reactions_ok, "deflection": max_disp <= limit,
+        "stress": max_vm <= fy, "buckling": first >= required,
+    }
+    seconds = time.perf_counter() - started
+    files = tuple(sorted(p.name for p in folder.iterdir() if p.is_file())) if keep else ()
+    summary = {
+        "analysed": True,
+        "ccx_found": True,
+        "solver": {"program": "CalculiX", "path": executable,
+                   "version": ccx.ccx_version(executable), "threads": threads,
+                   "elements": "S8R (quadratic shells, reduced integration)"},
+        # everything that depends on the machine, under "seconds" (as the other stages)
+        "seconds": {"static": round(run.seconds, 2), "buckling": round(brun.seconds, 2),
+                    "total": round(seconds, 2)},
+        "mesh": {"elements": shell.n_elements, "S8R": len(shell.quads),
+                 "S6": len(shell.triangles), "nodes": len(shell.nodes),
+                 "elements_per_side": divisions,
+                 "knots": len(knots), "knots_off_junctions": len(stray),
+                 "groups": {g.name: {"thickness_mm": g.thickness,
+                                     "density_factor": round(g.density_factor, 5),
+                                     "elements": int((shell.group == i).sum())}
+                            for i, g in enumerate(shell.groups)},
+                 "stiffeners": ("mass lumped on the panel corner lines, stiffness not modelled"
+                                if lumped > 0 else "none in the model")},
+        "supports": {"mode": st.supports, "nodes": len(shell.supports),
+                     "fixed": "translations (pinned)"},
+        "mass": {"model_kg": round(fe_mass, 2), "parts_kg": round(parts_mass, 2),
+                 "lumped_stiffeners_kg": round(lumped, 2), "error": _sig(mass_error, 3),
+                 "tolerance": MASS_TOLERANCE, "ok": mass_ok},
+        "load_cases": reactions,
+        "combinations": {"ULS": [c.name for c in uls], "SLS": [c.name for c in sls]},
+        "deflection": {"max_mm": round(max_disp, 3), "combination": sls[k_d].name,
+                       "panel": panel_ids[shell.panel[e_d, 0]],
+                       "at_mm": _r(shell.nodes[shell.quads[e_d, a_d]], 1),
+                       "span_mm": round(span, 1), "limit_mm": round(limit, 2),
+                       "ratio": f"L/{span / max_disp:.0f}" if max_disp > 0 else "L/inf",
+                       "ok": checks["deflection"]},
+        "stress": {"max_von_mises_MPa": round(max_vm, 2), "fy_MPa": fy,
+                   "utilisation": round(max_vm / fy, 4), "combination": uls[k_u].name,
+                   "panel": panel_ids[shell.panel[e_u, 0]],
+                   "part": _part_of(shell, e_u, panel_ids, shell.panel[e_u, 0]),
+                   "at_mm": _r(shell.nodes[shell.quads[e_u]].mean(axis=0), 1),
+                   "ok": checks["stress"]},
+        "buckling": {"combination": governing.name,
+                     "selected_by": "largest compressive membrane force of the ULS "
+                                    "combinations",
+                     "factors": [m["factor"] for m in modes[:MIN_POSITIVE_MODES]],
+                     "all_factors": [_sig(f, 4) for f in factors],
+                     "required": round(required, 3), "first": _sig(first, 4),
+                     "modes": modes[:max(MIN_POSITIVE_MODES, 10)],
+                     "note": local_note,
+                     "ok": checks["buckling"]},
+        "checks": checks,
+        "ok": all(checks.values()),
+        "panels": per_panel,
+        "files": [f"structure/{name}" for name in files],
+    }
+    displacement = _node_values(shell, np.einsum("c,ceaj->eaj", f_sls[k_d], u_el))
+    metrics = {"peak_memory_mb": max(run.peak_memory_mb, brun.peak_memory_mb),
+               "seconds": seconds, "equations": _equations(run.log)}
+    return Structure(True, summary, shell, displacement, util_el, mode_shape, panel_ids,
+                     files, tuple(issues), metrics)
+
+
+def _buckle(shell, case, folder, modes, threads, st, executable):
+    deck = ccx.write_deck(shell, folder / "buckle.inp", buckle=case, modes=modes,
+                          title=f"fabpanel buckling under {case.name}")
+    run = ccx.run_ccx(deck, threads, st.timeout, executable)
+    dat = ccx.read_dat(run.dat)
+    frd = ccx.read_frd(run.frd)
+    blocks = frd.results("DISP")
+    factors = dat.buckling if len(dat.buckling) else np.array([v for v, _, _ in blocks])
+    shapes = [a for _, _, a in blocks][-len(factors):] if len(factors) else []
+    return np.asarray(factors, float), shapes, run
+
+
+def _equations(log_path: Path) -> int:
+    """Number of equations CalculiX solved (from its log), 0 if not printed."""
+    text = Path(log_path).read_text(errors="replace").split()
+    for i, word in enumerate(text[:-1]):
+        if word == "equations" and text[i + 1].isdigit():
+            return int(text[i + 1])
+    return 0
+
+
+def _node_values(shell: ShellModel, per_element_node: np.ndarray) -> np.ndarray:
+    """(n, c): element-node values (E, 8, c) averaged at the shell nodes."""
+    c = per_element_node.shape[-1]
+    total = np.zeros((len(shell.nodes), c))
+    count = np.zeros(len(shell.nodes))
+    np.add.at(total, shell.quads.ravel(), per_element_node.reshape(-1, c))
+    np.add.at(count, shell.quads.ravel(), 1)
+    return total / np.maximum(count, 1)[:, None]
+
+
+def _part_of(shell: ShellModel, e: int, panel_ids, p: int) -> str:
+    name = shell.groups[shell.group[e]].name
+    own, other = shell.panel[e]
+    if name == "TOP":
+        return f"{panel_ids[own]}-TOP"
+    if name == "BOT":
+        return f"{panel_ids[own]}-BOT"
+    side = int(shell.side[e])
+    label = f"{panel_ids[own]}-RIB-{side}"
+    if other >= 0:
+        label += f" + {panel_ids[other]} rib (back to back)"
+    return label
+
+
+def _divisions(shell: ShellModel, panel_ids) -> float:
+    per_panel = (shell.group == 0).sum() / max(len(panel_ids), 1)
+    return round(math.sqrt(per_panel))
+
+
+def _sig(value: float, digits: int) -> float:
+    """``value`` to ``digits`` significant digits. Results are rounded where CalculiX's own
+    round-off shows: its eigenvalues vary in the 7th digit between runs of the same deck."""
+    value = float(value)
+    if value == 0 or not math.isfinite(value):
+        return value
+    return round(value, digits - 1 - math.floor(math.log10(abs(value))))
+
+
+def _r(values, digits: int) -> list:
+    return np.round(np.asarray(values, float), digits).tolist()

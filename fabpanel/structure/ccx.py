@@ -1,0 +1,417 @@
+"""The one adapter to CalculiX (``ccx``, tested with 2.20 as packaged by Debian): write the deck,
+run the solver, read ``.dat`` and ``.frd``. Every quirk it relies on is pinned in
+``tests/test_kernel_quirks.py`` or ``tests/test_structure.py``; the measured facts are in
+``notes/fem.md``.
+
+Quirks handled here:
+
+- each load case is one ``*STATIC`` step with ``OP=NEW`` loads, combined linearly afterwards;
+  a ``*BUCKLE`` step drops all earlier loads and scales only its own, so it carries the fully
+  factored combination;
+- ``*NODE FILE`` / ``*EL FILE`` stay at the default ``OUTPUT=3D``: stresses at the expanded
+  top and bottom surface nodes include bending (``OUTPUT=2D`` averages it away, 6x low);
+- ``RF`` is the external force: reaction plus loads applied at the supported node;
+- buckling under stabilising loads gives negative factors; the caller keeps the positive ones;
+- ccx exits 0 on some errors: the log is searched for ``*ERROR`` too.
+
+Threads: ``OMP_NUM_THREADS`` and the ``CCX_NPROC_*`` variables (ccx uses one thread unless told).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+import resource
+import shutil
+import subprocess
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SolverError
+from .loads import GRAVITY
+from .mesh import ShellModel
+
+log = logging.getLogger(__name__)
+
+#: what to tell a user whose machine has no ccx
+INSTALL_HINT = "install CalculiX with `sudo apt-get install calculix-ccx`"
+
+
+class CcxMissing(SolverError):
+    """``ccx`` is not on the PATH. The message says how to install it."""
+
+    exit_code = 2
+
+
+def find_ccx() -> str | None:
+    """Path of the ``ccx`` executable (``FABPANEL_CCX`` or the PATH), ``None`` if missing."""
+    explicit = os.environ.get("FABPANEL_CCX")
+    if explicit:
+        return shutil.which(explicit)
+    return shutil.which("ccx")
+
+
+def require_ccx() -> str:
+    path = find_ccx()
+    if path is None:
+        raise CcxMissing(f"CalculiX (ccx) was not found on the PATH; {INSTALL_HINT}")
+    return path
+
+
+def ccx_version(executable: str) -> str:
+    """The version line ccx prints with ``-v`` ("2.20"), or "" if it says none."""
+    try:
+        out = subprocess.run([executable, "-v"], capture_output=True, text=True, timeout=20,
+                             check=False)
+    except (OSError, subprocess.TimeoutExpired):
+        return ""
+    found = re.search(r"[Vv]ersion\s+([\d.]+)", out.stdout + out.stderr)
+    return found.group(1) if found else ""
+
+
+# --------------------------------------------------------------------------------------------
+# load cases and the deck
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class LoadCase:
+    """One linear load case.
+
+    name : short label ("G", "S", "W+x").
+    gravity : (3,) acceleration, mm/s2, applied to every element's mass (``*DLOAD GRAV``), or
+        ``None``. Lumped masses of the model are loaded as nodal forces with it.
+    forces : (n, 3) nodal forces, N, or ``None`` (``*CLOAD``).
+    """
+
+    name: str
+    gravity: np.ndarray | None = None
+    forces: np.ndarray | None = None
+
+    def scaled(self, factor: float) -> LoadCase:
+        return LoadCase(self.name, None if self.gravity is None else factor * self.gravity,
+                        None if self.forces is None else factor * self.forces)
+
+
+def combine(cases: list[LoadCase], factors: list[float], name: str) -> LoadCase:
+    """The load case ``sum(factor * case)`` (several gravity cases add up)."""
+    gravity, forces = None, None
+    for case, factor in zip(cases, factors):
+        if factor == 0:
+            continue
+        if case.gravity is not None:
+            gravity = factor * case.gravity if gravity is None else gravity + factor * case.gravity
+        if case.forces is not None:
+            forces = factor * case.forces if forces is None else forces + factor * case.forces
+    return LoadCase(name, gravity, forces)
+
+
+def _ids(values: np.ndarray, per_line: int = 16) -> str:
+    values = np.asarray(values).ravel() + 1
+    lines = [", ".join(map(str, values[i:i + per_line])) for i in range(0, len(values), per_line)]
+    return "\n".join(lines)
+
+
+def _rows(table: np.ndarray, ids: np.ndarray) -> str:
+    """``id, v1, v2...`` lines (ids 1-based)."""
+    body = np.c_[ids + 1, table]
+    fmt = "%d" + ", %d" * table.shape[1] if table.dtype.kind in "iu" else None
+    if fmt:
+        return "\n".join(fmt % tuple(row) for row in body)
+    return "\n".join(f"{int(row[0])}, " + ", ".join(f"{v:.9g}" for v in row[1:]) for row in body)
+
+
+def write_deck(model: ShellModel, path: Path, cases: list[LoadCase] = (),
+               buckle: LoadCase | None = None, modes: int = 10, title: str = "fabpanel") -> Path:
+    """Write a CalculiX deck: the mesh, sections, supports, one ``*STATIC`` step per case and
+    optionally one ``*BUCKLE`` step with ``modes`` factors. Node and element numbers are the
+    model's indices + 1. Returns ``path``."""
+    path = Path(path)
+    nq = len(model.quads)
+    out: list[str] = [f"** {title}: written by fabpanel (units N, mm, t, s)"]
+    out.append("*NODE, NSET=NALL")
+    out.append("\n".join(f"{i + 1}, {x:.9g}, {y:.9g}, {z:.9g}"
+                         for i, (x, y, z) in enumerate(model.nodes)))
+    all_sets = []
+    for g, group in enumerate(model.groups):
+        for conn, etype, offset in ((model.quads, "S8R", 0), (model.triangles, "S6", nq)):
+            members = np.nonzero(model.group[offset:offset + len(conn)] == g)[0]
+            if len(members) == 0:
+                continue
+            name = f"E{group.name}{'' if etype == 'S8R' else '_S6'}"
+            all_sets.append(name)
+            out.append(f"*ELEMENT, TYPE={etype}, ELSET={name}")
+            out.append(_rows(conn[members] + 1, members + offset))
+    out.append("*ELSET, ELSET=EALL")
+    out.append(", ".join(all_sets))
+    supported = np.unique(model.supports)
+    if len(supported):
+        out += ["*NSET, NSET=NSUPP", _ids(supported)]
+    for c, (nodes, _) in enumerate(model.constraints):
+        out += [f"*NSET, NSET=NFIX{c}", _ids(np.unique(nodes))]
+    lumped = model.lumped_mass is not None and np.any(model.lumped_mass)
+    for g, group in enumerate(model.groups):
+        mat = model.material
+        density = mat.density * group.density_factor * 1e-3        # kg/mm3 -> t/mm3
+        out += [f"*MATERIAL, NAME=M{group.name}", "*ELASTIC", f"{mat.E:.9g}, {mat.nu:.9g}",
+                "*DENSITY", f"{density:.9g}"]
+        sets = [s for s in all_sets if s == f"E{group.name}" or s == f"E{group.name}_S6"]
+        for name in sets:
+            out += [f"*SHELL SECTION, ELSET={name}, MATERIAL=M{group.name}",
+                    f"{group.thickness:.9g}"]
+    out.append("*BOUNDARY")
+    if len(supported):
+        out.append("NSUPP, 1, 3")
+    for c, (_, dofs) in enumerate(model.constraints):
+        out += [f"NFIX{c}, {d}, {d}" for d in dofs]
+    lumped_nodes = np.nonzero(model.lumped_mass)[0] if lumped else np.zeros(0, int)
+
+    def loads(case: LoadCase) -> list[str]:
+        lines = ["*DLOAD, OP=NEW"]
+        if case.gravity is not None and np.any(case.gravity):
+            g = float(np.linalg.norm(case.gravity))
+            d = case.gravity / g
+            lines.append(f"EALL, GRAV, {g:.9g}, {d[0]:.9g}, {d[1]:.9g}, {d[2]:.9g}")
+        forces = np.zeros((len(model.nodes), 3)) if case.forces is None else case.forces.copy()
+        if case.gravity is not None and len(lumped_nodes):
+            forces += model.lumped_mass[:, None] * case.gravity[None] * 1e-3
+        lines.append("*CLOAD, OP=NEW")
+        node, dof = np.nonzero(np.abs(forces) > 0)
+        lines += [f"{i + 1}, {d + 1}, {forces[i, d]:.12g}" for i, d in zip(node, dof)]
+        return lines
+
+    for s, case in enumerate(cases):
+        out += [f"** load case {case.name}", "*STEP", "*STATIC"] + loads(case)
+        if len(supported):
+            out += ["*NODE PRINT, NSET=NSUPP, TOTALS=ONLY", "RF"]
+        if s == 0:
+            out += ["*EL PRINT, ELSET=EALL, TOTALS=ONLY", "EMAS"]
+        out += ["*NODE FILE", "U", "*EL FILE", "S", "*END STEP"]
+    if buckle is not None:
+        out += [f"** buckling under {buckle.name}", "*STEP", "*BUCKLE", f"{int(modes)}"]
+        out += loads(buckle)
+        if not cases:
+            out += ["*EL PRINT, ELSET=EALL, TOTALS=ONLY", "EMAS"]
+        out += ["*NODE FILE", "U", "*END STEP"]
+    path.write_text("\n".join(out) + "\n")
+    return path
+
+
+# --------------------------------------------------------------------------------------------
+# running
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class CcxRun:
+    """A finished ccx run: the files it wrote and what it cost."""
+
+    deck: Path
+    dat: Path
+    frd: Path
+    log: Path
+    seconds: float
+    peak_memory_mb: float
+    threads: int
+
+
+def run_ccx(deck: Path, threads: int = 1, timeout: float | None = None,
+            executable: str | None = None) -> CcxRun:
+    """Run ccx on ``deck`` in its folder. Raises :class:`CcxMissing` without ccx and
+    :class:`~fabpanel.errors.SolverError` (with the first error line of the log) when the run
+    fails."""
+    executable = executable or require_ccx()
+    deck = Path(deck)
+    stem = deck.with_suffix("")
+    env = dict(os.environ)
+    threads = max(1, int(threads))
+    for key in ("OMP_NUM_THREADS", "CCX_NPROC_STIFFNESS", "CCX_NPROC_EQUATION_SOLVER",
+                "CCX_NPROC_RESULTS", "NUMBER_OF_CPUS"):
+        env[key] = str(threads)
+    log_path = stem.parent / f"{stem.name}.log"
+    started = time.perf_counter()
+    try:
+        with log_path.open("w") as handle:
+            proc = subprocess.run([executable, "-i", stem.name], cwd=stem.parent, env=env,
+                                  stdout=handle, stderr=subprocess.STDOUT, timeout=timeout,
+                                  check=False)
+    except subprocess.TimeoutExpired as err:
+        raise SolverError(f"CalculiX did not finish {deck.name} within {timeout:g} s; use a "
+                          f"coarser [structure] element_size or a longer timeout") from err
+    seconds = time.perf_counter() - started
+    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
+    text = log_path.read_text(errors="replace")
+    error = next((line.strip() for line in text.splitlines() if "*ERROR" in line), None)
+    dat, frd = stem.with_suffix(".dat"), stem.with_suffix(".frd")
+    if proc.returncode != 0 or error or not dat.is_file():
+        detail = error or f"exit code {proc.returncode}"
+        raise SolverError(f"CalculiX failed on {deck.name}: {detail} (log: {log_path})")
+    log.info("ccx %s: %.1f s, %d threads", deck.name, seconds, threads)
+    return CcxRun(deck, dat, frd, log_path, seconds, peak, threads)
+
+
+# --------------------------------------------------------------------------------------------
+# .dat
+# --------------------------------------------------------------------------------------------
+@dataclass
+class DatResults:
+    """Totals read from a ``.dat`` file, in step order."""
+
+    forces: list[np.ndarray] = field(default_factory=list)     # (3,) per static step, N
+    mass: list[float] = field(default_factory=list)            # total mass per print, t
+    buckling: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+_FLOAT = r"[-+]?\d*\.?\d+(?:[eE][-+]?\d+)?"
+
+
+def read_dat(path: Path) -> DatResults:
+    """Reaction totals (``total force``), masses (``total mass``) and buckling factors."""
+    text = Path(path).read_text(errors="replace")
+    result = DatResults()
+    for match in re.finditer(r"total force \(fx,fy,fz\) for set \S+ and time\s+\S+\s*\n\s*\n?"
+                             rf"\s*({_FLOAT})\s+({_FLOAT})\s+({_FLOAT})", text):
+        result.forces.append(np.array([float(match.group(i)) for i in (1, 2, 3)]))
+    for match in re.finditer(rf"total mass for set \S+ and time\s+\S+\s*\n\s*\n?\s*({_FLOAT})",
+                             text):
+        result.mass.append(float(match.group(1)))
+    block = text.split("B U C K L I N G   F A C T O R   O U T P U T")
+    if len(block) > 1:
+        rows = re.findall(rf"^\s+(\d+)\s+({_FLOAT})\s*$", block[-1], re.MULTILINE)
+        result.buckling = np.array([float(v) for _, v in rows])
+    return result
+
+
+# --------------------------------------------------------------------------------------------
+# .frd
+# --------------------------------------------------------------------------------------------
+@dataclass
+class FrdResults:
+    """Nodal results of a ``.frd`` file (expanded 3D mesh with ``OUTPUT=3D``).
+
+    nodes : (N, 3) expanded node coordinates, row ``i`` for node id ``node_ids[i]``.
+    elements : dict element id -> connectivity, as (E,) ids and (E, nn) node ids (frd order).
+    blocks : list of (name, value, step, (N, c) array aligned with ``node_ids``); ``value`` is
+        the step time or the buckling factor.
+    """
+
+    node_ids: np.ndarray
+    nodes: np.ndarray
+    element_ids: np.ndarray
+    connectivity: np.ndarray
+    blocks: list[tuple[str, float, int, np.ndarray]]
+
+    def row_of(self, ids: np.ndarray) -> np.ndarray:
+        """Rows of the node arrays for frd node ids."""
+        lookup = np.full(int(self.node_ids.max()) + 1, -1)
+        lookup[self.node_ids] = np.arange(len(self.node_ids))
+        return lookup[ids]
+
+    def results(self, name: str) -> list[tuple[float, int, np.ndarray]]:
+        return [(v, s, a) for n, v, s, a in self.blocks if n == name]
+
+
+def _fixed(lines: list[bytes], start: int, width: int, count: int, kind=float) -> np.ndarray:
+    """Columns of fixed width from equal-length lines, as an (n, count) array."""
+    if not lines:
+        return np.zeros((0, count))
+    size = max(len(line) for line in lines)
+    blob = b"".join(line.ljust(size) for line in lines)
+    chars = np.frombuffer(blob, dtype=np.uint8).reshape(len(lines), size)
+    cols = chars[:, start:start + width * count].copy()
+    text = cols.view(f"S{width}").reshape(len(lines), count)
+    return text.astype(kind)
+
+
+def read_frd(path: Path) -> FrdResults:
+    """Read the node, element and result blocks of an ASCII ``.frd`` (ccx 2.20 long format:
+    ids as I10, values as E12.5)."""
+    lines = Path(path).read_bytes().splitlines()
+    node_ids = nodes = element_ids = connectivity = None
+    blocks = []
+    i, n = 0, len(lines)
+    while i < n:
+        line = lines[i]
+        head = line[:6]
+        if head == b"    2C":
+            j = i + 1
+            while not lines[j].startswith(b" -3"):
+                j += 1
+            body = lines[i + 1:j]
+            node_ids = _fixed(body, 3, 10, 1, np.int64)[:, 0]
+            nodes = _fixed(body, 13, 12, 3)
+            i = j + 1
+        elif head == b"    3C":
+            j = i + 1
+            while not lines[j].startswith(b" -3"):
+                j += 1
+            body = lines[i + 1:j]
+            starts = [k for k, text in enumerate(body) if text.startswith(b" -1")]
+            heads = [body[k] for k in starts]
+            element_ids = _fixed(heads, 3, 10, 1, np.int64)[:, 0]
+            per = np.diff(starts + [len(body)])
+            rows = [b"".join(body[k + 1:k + c]).replace(b" -2", b"") for k, c in zip(starts, per)]
+            width = max(len(r) for r in rows) // 10
+            rows = [r.ljust(10 * width) for r in rows]
+            chars = np.frombuffer(b"".join(rows), np.uint8).reshape(len(rows), 10 * width)
+            text = chars.copy().view("S10").reshape(len(rows), width)
+            connectivity = np.where(text == b" " * 10, b"-1", text).astype(np.int64)
+            i = j + 1
+        elif line.startswith(b"  100CL"):
+            value = float(line[12:24])
+            step = int(line[58:63]) if len(line) >= 63 and line[58:63].strip() else 0
+            name = lines[i + 1][5:13].strip().decode()
+            ncomp = int(lines[i + 1][13:18])
+            j = i + 2
+            while lines[j].startswith(b" -5"):
+                j += 1
+            start = j
+            while not lines[j].startswith(b" -3"):
+                j += 1
+            body = lines[start:j]
+            ids = _fixed(body, 3, 10, 1, np.int64)[:, 0]
+            width = (len(body[0]) - 13) // 12 if body else ncomp
+            values = _fixed(body, 13, 12, width)
+            aligned = np.zeros((len(node_ids), width))
+            lookup = np.full(int(node_ids.max()) + 1, -1)
+            lookup[node_ids] = np.arange(len(node_ids))
+            aligned[lookup[ids]] = values
+            blocks.append((name, value, step, aligned))
+            i = j + 1
+        else:
+            i += 1
+    if node_ids is None or connectivity is None:
+        raise SolverError(f"{path} holds no mesh; did CalculiX finish?")
+    return FrdResults(node_ids, nodes, element_ids, connectivity, blocks)
+
+
+#: frd order of a C3D20(R) expanded from an S8R: bottom corners, top corners, bottom mid-sides,
+#: mid-thickness corners, top mid-sides (pinned in tests/test_structure.py)
+HE20_BOTTOM = np.r_[0:4, 8:12]
+HE20_TOP = np.r_[4:8, 16:20]
+
+
+def surface_nodes(frd: FrdResults, n_elements: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(bottom, top)`` rows (E, 8) of the expanded nodes on the two surfaces of every shell
+    element, in the S8R's node order (element ``e`` is frd element ``e + 1``)."""
+    if frd.connectivity.shape[1] != 20:
+        raise SolverError("only S8R models (expanded to C3D20R) are read back")
+    order = np.argsort(frd.element_ids)
+    conn = frd.connectivity[order]
+    if len(conn) != n_elements or frd.element_ids[order][-1] != n_elements:
+        raise SolverError(f"the .frd holds {len(conn)} elements, the model {n_elements}")
+    return frd.row_of(conn[:, HE20_BOTTOM]), frd.row_of(conn[:, HE20_TOP])
+
+
+def read_knots(deck: Path) -> np.ndarray:
+    """(k,) int: model node indices (0-based) where CalculiX generated a KNOT (from the
+    ``.12d`` expansion map that ccx 2.15+ writes next to the deck)."""
+    path = Path(deck).with_suffix(".12d")
+    if not path.is_file():
+        return np.zeros(0, int)
+    found = re.findall(r"a KNOT was generated in node\s+(\d+)", path.read_text(errors="replace"))
+    return np.array(sorted({int(v) - 1 for v in found}), int)
+
+
+def gravity_vector(magnitude: float = GRAVITY) -> np.ndarray:
+    return np.array([0.0, 0.0, -magnitude])

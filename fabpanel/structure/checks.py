@@ -1,0 +1,177 @@
+"""Post-processing of linear shell results: supports, load combinations, von Mises at the shell
+surfaces, reaction and mass checks, span, buckling mode extent.
+
+Combinations follow the thesis (§7.3.2): ULS ``gamma_g G + gamma_q sum(Q)`` (1.2 / 1.5), SLS
+unfactored, with snow and wind (each wind direction in both signs) alone and together. Linear
+static cases are combined here, not in CalculiX (one ``*STATIC`` step per characteristic case).
+Stresses are read at the expanded top and bottom surface nodes (``OUTPUT=3D``), so the bending
+part is included; utilisation = von Mises / f_y (gamma_M0 = 1.0, EN 1993-1-1 6.1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import product
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..errors import GeometryError
+from .mesh import ShellModel
+
+
+# --------------------------------------------------------------------------------------------
+# supports
+# --------------------------------------------------------------------------------------------
+def lowest_nodes(nodes: np.ndarray, band: float) -> np.ndarray:
+    """(s,) int: nodes no higher than ``band`` mm above the lowest node (the thesis pins the
+    lowest vertices of the sheets)."""
+    z = nodes[:, 2]
+    return np.nonzero(z <= z.min() + band)[0]
+
+
+def layout_boundary_loops(quads: np.ndarray, neighbours: np.ndarray, vertices: np.ndarray
+                          ) -> list[np.ndarray]:
+    """Boundary loops of a quad layout as arrays of (panel, side) pairs, the loop with the
+    largest area projected on the best-fitting plane first (the outer boundary)."""
+    boundary = np.argwhere(neighbours < 0)
+    start = {int(quads[p, s]): (int(p), int(s)) for p, s in boundary}
+    loops, seen = [], set()
+    for p, s in boundary:
+        if (p, s) in seen:
+            continue
+        loop, key = [], (int(p), int(s))
+        while key not in seen:
+            seen.add(key)
+            loop.append(key)
+            end = int(quads[key[0], (key[1] + 1) % 4])
+            if end not in start:
+                break
+            key = start[end]
+        loops.append(np.array(loop))
+    centre = vertices.mean(axis=0)
+    _, _, vt = np.linalg.svd(vertices - centre, full_matrices=False)
+
+    def area(loop):
+        pts = (vertices[quads[loop[:, 0], loop[:, 1]]] - centre) @ vt[:2].T
+        return abs(0.5 * np.sum(pts[:, 0] * np.roll(pts[:, 1], -1)
+                                - np.roll(pts[:, 0], -1) * pts[:, 1]))
+
+    return sorted(loops, key=area, reverse=True)
+
+
+def rib_nodes_of_sides(shell: ShellModel, sides: np.ndarray) -> np.ndarray:
+    """(s,) int: nodes of the rib elements on the given (panel, side) pairs."""
+    key = set(map(tuple, np.asarray(sides).tolist()))
+    mask = np.array([(p, s) in key for p, s in zip(shell.panel[:, 0], shell.side)])
+    return np.unique(shell.quads[mask[: len(shell.quads)]])
+
+
+def check_supports(nodes: np.ndarray, supports: np.ndarray, what: str) -> None:
+    """Raise :class:`GeometryError` for fewer than three or collinear support nodes (the shell
+    would turn about them; CalculiX would stop on a singular matrix)."""
+    if len(supports) < 3:
+        raise GeometryError(f"{what} selects {len(supports)} node(s); pinned supports need at "
+                            f"least three nodes not in a line: raise [structure] support_band "
+                            f"or choose another [structure] supports")
+    pts = nodes[supports] - nodes[supports].mean(axis=0)
+    sv = np.linalg.svd(pts, compute_uv=False)
+    if sv[1] < 1e-6 * max(sv[0], 1e-9):
+        raise GeometryError(f"{what} selects nodes on one line; the shell could turn about it: "
+                            f"raise [structure] support_band or choose another [structure] "
+                            f"supports")
+
+
+def span_of(nodes: np.ndarray, supports: np.ndarray) -> float:
+    """Span for the deflection limit: twice the largest plan distance from a node to its
+    nearest support (a vault: its width; a dome on a ring: its diameter), mm."""
+    dist, _ = cKDTree(nodes[supports, :2]).query(nodes[:, :2])
+    return float(2 * dist.max())
+
+
+# --------------------------------------------------------------------------------------------
+# combinations
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Combination:
+    """``sum(factors[i] * case i)``; ``kind`` is "ULS" or "SLS"."""
+
+    name: str
+    kind: str
+    factors: np.ndarray
+
+
+def combinations(cases: list[str], gamma_g: float, gamma_q: float) -> list[Combination]:
+    """ULS and SLS combinations of the characteristic cases ``G`` (first), ``S`` and wind
+    cases ``W...`` (each in both signs): every variable action alone, and snow with each wind
+    case."""
+    names = list(cases)
+    winds = [c for c in names if c.startswith("W")]
+    variable: list[list[tuple[str, float]]] = []
+    if "S" in names:
+        variable.append([("S", 1.0)])
+    for w, sign in product(winds, (1.0, -1.0)):
+        variable.append([(w, sign)])
+        if "S" in names:
+            variable.append([("S", 1.0), (w, sign)])
+    if not variable:
+        variable = [[]]
+    out = []
+    for kind, gg, gq in (("ULS", gamma_g, gamma_q), ("SLS", 1.0, 1.0)):
+        for terms in variable:
+            factors = np.zeros(len(names))
+            factors[names.index("G")] = gg
+            label = f"{gg:g}G" if gg != 1 else "G"
+            for case, sign in terms:
+                factors[names.index(case)] = sign * gq
+                label += f"{'+' if sign > 0 else '-'}{gq:g}{case}" if gq != 1 else \
+                    f"{'+' if sign > 0 else '-'}{case}"
+            out.append(Combination(label, kind, factors))
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# stresses
+# --------------------------------------------------------------------------------------------
+def von_mises(stress: np.ndarray) -> np.ndarray:
+    """Von Mises stress of ``(..., 6)`` components in .frd order (xx, yy, zz, xy, yz, zx)."""
+    sxx, syy, szz, sxy, syz, szx = np.moveaxis(stress, -1, 0)
+    return np.sqrt(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2)
+                   + 3.0 * (sxy ** 2 + syz ** 2 + szx ** 2))
+
+
+def membrane_compression(stress_bottom: np.ndarray, stress_top: np.ndarray,
+                         thickness: np.ndarray, areas: np.ndarray) -> np.ndarray:
+    """Compressive membrane force of every element: area x thickness x the most compressive
+    principal stress of the mean of the surface stresses (0 in tension), N mm. Summed over
+    the model it ranks combinations for the buckling analysis.
+
+    stress_bottom, stress_top : (..., E, 8, 6); thickness, areas : (E,).
+    """
+    mean = 0.5 * (stress_bottom + stress_top).mean(axis=-2)        # (..., E, 6)
+    s = np.stack([mean[..., [0, 3, 5]], mean[..., [3, 1, 4]], mean[..., [5, 4, 2]]], axis=-2)
+    smallest = np.linalg.eigvalsh(s)[..., 0]
+    return np.maximum(0.0, -smallest) * thickness * areas
+
+
+def relative_error(found: np.ndarray, expected: np.ndarray) -> float:
+    """|found - expected| / |expected| for vectors (0 when both vanish)."""
+    scale = float(np.linalg.norm(expected))
+    diff = float(np.linalg.norm(np.asarray(found) - np.asarray(expected)))
+    return diff / scale if scale > 0 else diff
+
+
+def mode_extent(amplitude: np.ndarray, panel: np.ndarray, n_panels: int,
+                threshold: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+    """Panels a buckling mode involves: ``(panels, share)`` with each panel's largest modal
+    amplitude relative to the mode's largest, for panels above ``threshold``, largest first.
+
+    amplitude : (E,) per element; panel : (E, 2) panel indices (-1 where none)."""
+    per_panel = np.zeros(n_panels)
+    for column in range(panel.shape[1]):
+        ok = panel[:, column] >= 0
+        np.maximum.at(per_panel, panel[ok, column], amplitude[ok])
+    share = np.round(per_panel / max(per_panel.max(), 1e-300), 2)
+    involved = np.nonzero(share >= threshold)[0]
+    involved = involved[np.argsort(-share[involved], kind="stable")]
+    return involved, share[involved]

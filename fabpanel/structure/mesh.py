@@ -1,0 +1,432 @@
+"""Shell models for CalculiX: generic structured S8R patches and the sandwich model of a fabpanel
+:class:`~fabpanel.data.Model`.
+
+Element choice. CalculiX expands every shell element into one layer of solid elements. The
+8-node quadratic shell with reduced integration, **S8R** (expanded to C3D20R), is the one that
+neither locks nor hourglasses on thin curved steel: measured with CalculiX 2.20 (``notes/fem.md``)
+Scordelis-Lo 8 x 8 quarter -0.15 %, simply supported plate buckling -0.9 % at 16 x 16, pinched
+hemisphere -0.3 %. Its quadratic edges also follow curved panel sides. **S6** (C3D15) is accepted
+for triangles where a mesh cannot avoid them; S3 (locks) and S4R (hourglasses) are never written.
+
+The sandwich model (after the thesis, §7.3.2, "inclusion points"): every panel's top and bottom
+sheet is meshed on its mid-surface, every rib spans between the two sheet mid-surfaces on the
+side's rib plane, and all parts meeting along a line share their nodes there, so CalculiX joins
+them with moment-continuous knots. The back-to-back ribs of two neighbours become one shell of
+twice the rib thickness on the shared plane; boundary ribs are single. Nodes come from the
+developed sample grids (shared exactly between neighbours), every panel side is divided into the
+same number of elements, so the meshes of neighbours conform without any search.
+
+What the shell model simplifies, and how the mass is kept right (checked against the parts):
+
+- rib shells run from sheet mid-surface to sheet mid-surface, ``(t + b) / 2`` taller than the rib
+  plate, and corner to corner, while each plate stops at its panel's other ribs; the rib density
+  is scaled by the plate area over the shell area (both from the geometry, not from the parts);
+- bolt holes and access openings (``Part.holes``) are taken off the density of their part kind
+  (their stiffness loss is ignored: a 13 mm hole every 250 mm in an 8 mm rib);
+- boundary ribs sit on the rib plane, ``t_rib / 2`` outside their true mid-plane;
+- corner stiffeners are not meshed: their ends lie ``stiffener_offset`` along the sides, between
+  the nodes of a structured panel mesh (meshing them would need triangles and many more
+  elements). Their mass is lumped on the panel's corner line (1/6, 2/3, 1/6 over its three
+  nodes) and their stiffness is left out, which is on the safe side for stresses and buckling.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.interpolate import make_interp_spline
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from ..errors import InputError
+
+#: nodes closer than this are one node, mm. Shared samples are bit-identical; interpolated side
+#: nodes agree to round-off (1e-9 mm); different nodes of a panel are at least a sheet
+#: half-thickness apart
+MERGE_TOLERANCE = 1e-3
+
+#: S8R node order inside an element of a (2a+1) x (2b+1) node grid: corners, then mid-sides
+_QUAD_CORNERS = ((0, 0), (2, 0), (2, 2), (0, 2))
+_QUAD_MIDS = ((1, 0), (2, 1), (1, 2), (0, 1))
+
+
+@dataclass(frozen=True)
+class Material:
+    """Linear elastic steel. Internal units: MPa, kg/mm3."""
+
+    name: str = "S235"
+    E: float = 210000.0
+    nu: float = 0.3
+    density: float = 7.85e-6
+    fy: float = 235.0
+
+
+@dataclass(frozen=True)
+class ShellGroup:
+    """Elements with one thickness and one density scale (one ``*SHELL SECTION``).
+
+    name : element set name in the deck (``TOP``, ``BOT``, ``RIB``, ``RIB2``...), upper case.
+    thickness : mm.
+    density_factor : the material density is multiplied by it for this group (mass corrections,
+        see the module docstring); stiffness is not scaled.
+    """
+
+    name: str
+    thickness: float
+    density_factor: float = 1.0
+
+
+@dataclass(frozen=True)
+class ShellModel:
+    """A shell model ready for a CalculiX deck.
+
+    nodes : (n, 3) float
+        mm, world frame.
+    quads : (e, 8) int
+        S8R connectivity (corners counter-clockwise seen from the element normal, then the
+        mid-side nodes of sides 1-2, 2-3, 3-4, 4-1).
+    triangles : (f, 6) int
+        S6 connectivity (3 corners, then mid-sides 1-2, 2-3, 3-1); usually empty.
+    group : (e + f,) int
+        index into ``groups`` per element, quads first.
+    groups : tuple of ShellGroup
+    material : Material
+    supports : (s,) int
+        pinned nodes (translations fixed, rotations free: never fix a drilling rotation).
+    constraints : tuple of ((c,) int nodes, dofs)
+        further single-point constraints (validation models: symmetry, rigid-body modes).
+    lumped_mass : (n,) float or None
+        extra mass per node, kg, loaded by gravity but not an element (unmeshed stiffeners).
+    panel : (e + f, 2) int or None
+        the panel(s) each element belongs to (second column -1 unless a merged rib).
+    side : (e + f,) int or None
+        rib side within ``panel[:, 0]`` (-1 for sheets).
+    """
+
+    nodes: np.ndarray
+    quads: np.ndarray
+    triangles: np.ndarray
+    group: np.ndarray
+    groups: tuple[ShellGroup, ...]
+    material: Material
+    supports: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    constraints: tuple[tuple[np.ndarray, tuple[int, ...]], ...] = ()
+    lumped_mass: np.ndarray | None = None
+    panel: np.ndarray | None = None
+    side: np.ndarray | None = None
+
+    @property
+    def n_elements(self) -> int:
+        return len(self.quads) + len(self.triangles)
+
+    @property
+    def thickness(self) -> np.ndarray:
+        """(e + f,) float: thickness per element, mm."""
+        return np.array([g.thickness for g in self.groups])[self.group]
+
+    @property
+    def density(self) -> np.ndarray:
+        """(e + f,) float: effective density per element, kg/mm3."""
+        return self.material.density * np.array([g.density_factor for g in self.groups])[
+            self.group]
+
+    def element_areas(self) -> np.ndarray:
+        """(e + f,) float: mid-surface area per element, mm2 (Gauss quadrature)."""
+        from .loads import element_integrals
+
+        return element_integrals(self)[1].sum(axis=1)
+
+    def replace(self, **changes) -> ShellModel:
+        return ShellModel(**{**self.__dict__, **changes})
+
+
+# --------------------------------------------------------------------------------------------
+# generic structured patches
+# --------------------------------------------------------------------------------------------
+def grid_quads(rows: int, cols: int) -> np.ndarray:
+    """(e, 8) int: S8R elements of a ``rows x cols`` node grid (both odd) with node index
+    ``i * cols + j``. Element corners run ``(i, j) -> (i+2, j) -> (i+2, j+2) -> (i, j+2)``, so the
+    normal is ``d/di x d/dj``; the centre node of every 3 x 3 block is not used."""
+    if rows < 3 or cols < 3 or rows % 2 == 0 or cols % 2 == 0:
+        raise InputError(f"an S8R node grid needs an odd number (>= 3) of rows and columns, got "
+                         f"{rows} x {cols}")
+    i, j = np.meshgrid(np.arange(0, rows - 1, 2), np.arange(0, cols - 1, 2), indexing="ij")
+    i, j = i.ravel()[:, None], j.ravel()[:, None]
+    offsets = np.array(_QUAD_CORNERS + _QUAD_MIDS)
+    return (i + offsets[:, 0]) * cols + (j + offsets[:, 1])
+
+
+def merge_nodes(nodes: np.ndarray, tolerance: float = MERGE_TOLERANCE
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Merge coincident nodes. Returns ``(unique (u, 3), index (n,))`` with
+    ``unique[index] ~ nodes``; the first node of every cluster is kept."""
+    pairs = cKDTree(nodes).query_pairs(tolerance, output_type="ndarray")
+    n = len(nodes)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    first = np.full(label.max() + 1, n)
+    np.minimum.at(first, label, np.arange(n))
+    order = np.argsort(first)                       # clusters numbered by their first node
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return nodes[first[order]], rank[label]
+
+
+def compact(nodes: np.ndarray, *connectivity: np.ndarray, tolerance: float = MERGE_TOLERANCE):
+    """Merge coincident nodes and drop unused ones. Returns ``(nodes, conn..., old_to_new)``;
+    ``old_to_new`` is -1 for dropped nodes."""
+    unique, index = merge_nodes(nodes, tolerance)
+    used = np.zeros(len(unique), bool)
+    for conn in connectivity:
+        used[index[conn].ravel()] = True
+    new = np.cumsum(used) - 1
+    old_to_new = np.where(used[index], new[index], -1)
+    return (unique[used], *(old_to_new[c] for c in connectivity), old_to_new)
+
+
+def patch_model(points: np.ndarray, thickness: float, material: Material,
+                tolerance: float = MERGE_TOLERANCE) -> tuple[ShellModel, np.ndarray]:
+    """A shell model of one structured S8R patch.
+
+    points : (rows, cols, 3) float, rows and cols odd: the node grid (mid-surface, mm); node
+        ``(i, j)`` becomes a node, coincident grid points (a closed ring) are merged.
+    Returns the model (no supports yet) and ``index (rows, cols) int``, the node of each grid
+    point (-1 for the unused element centres).
+    """
+    points = np.asarray(points, float)
+    rows, cols = points.shape[:2]
+    quads = grid_quads(rows, cols)
+    nodes, quads, index = compact(points.reshape(-1, 3), quads, tolerance=tolerance)
+    model = ShellModel(nodes=nodes, quads=quads, triangles=np.zeros((0, 6), int),
+                       group=np.zeros(len(quads), int),
+                       groups=(ShellGroup("SHELL", float(thickness)),), material=material)
+    return model, index.reshape(rows, cols)
+
+
+# --------------------------------------------------------------------------------------------
+# the sandwich model of a fabpanel Model
+# --------------------------------------------------------------------------------------------
+def resample_grids(grids: np.ndarray, q: int) -> np.ndarray:
+    """(m, q, q, c) float: panel grids ``(m, k, k, c)`` at ``q`` evenly spaced parameters per
+    direction. Exact sub-sampling when the parameters fall on samples, otherwise a cubic spline
+    through the samples, first along one grid direction and then the other; a side's points
+    then depend on that side's samples only, so neighbours get the same side nodes."""
+    k = grids.shape[1]
+    if (k - 1) % (q - 1) == 0:
+        step = (k - 1) // (q - 1)
+        return grids[:, ::step, ::step].copy()
+    s, t = np.linspace(0.0, 1.0, k), np.linspace(0.0, 1.0, q)
+    degree = min(3, k - 1)
+    along = make_interp_spline(s, grids, k=degree, axis=1)(t)
+    return make_interp_spline(s, along, k=degree, axis=2)(t)
+
+
+def side_indices(q: int) -> np.ndarray:
+    """(4, q) int: local node index ``i * q + j`` of the q x q grid along each panel side, from
+    corner ``s`` to corner ``s + 1`` (the DevelopedPanels convention)."""
+    r = np.arange(q)
+    return np.stack([r * q, (q - 1) * q + r, r[::-1] * q + q - 1, r[::-1]])
+
+
+@dataclass(frozen=True)
+class SandwichSettings:
+    """What the sandwich mesh needs from the job: thicknesses and offsets along the outward
+    normal from the design face (mm), material, and how finely to divide each panel side."""
+
+    offsets: dict
+    t_top: float
+    t_bot: float
+    t_rib: float
+    rib_height: float
+    buildup: str
+    material: Material
+    divisions: int
+
+
+def sandwich_settings(job, divisions: int) -> SandwichSettings:
+    from ..model.build import buildup_offsets
+
+    sw, mat = job.sandwich, job.material
+    return SandwichSettings(
+        offsets=buildup_offsets(job), t_top=float(sw.sheet_thickness),
+        t_bot=float(sw.bottom_thickness), t_rib=float(sw.rib_thickness),
+        rib_height=float(sw.rib_height), buildup=sw.buildup,
+        material=Material(mat.name, float(mat.E), float(mat.nu), float(mat.density),
+                          float(mat.fy)),
+        divisions=int(divisions))
+
+
+def sandwich_model(developed, settings: SandwichSettings, parts=()) -> ShellModel:
+    """The shell model of all panels (see the module docstring).
+
+    developed : :class:`~fabpanel.data.DevelopedPanels` (samples, normals, neighbours, planes).
+    settings : :func:`sandwich_settings`.
+    parts : the built :class:`~fabpanel.data.Part` records; only their holes and the stiffeners'
+        masses are used (the shell geometry comes from ``developed``).
+
+    Groups: ``TOP``, ``BOT`` (sheets), ``RIB`` (boundary, one rib thickness), ``RIB2`` (shared,
+    two). Element normals: sheets outward; ribs into the lower-numbered panel.
+    """
+    n = settings.divisions
+    if n < 1:
+        raise InputError(f"[structure] needs at least one element per panel side, got {n}")
+    q = 2 * n + 1
+    samples, normals = np.asarray(developed.samples, float), np.asarray(developed.normals, float)
+    m = len(samples)
+    grid = resample_grids(samples, q)
+    nrm = resample_grids(normals, q)
+    nrm /= np.linalg.norm(nrm, axis=-1, keepdims=True)
+    off = settings.offsets
+    top = grid + (off["top_outer"] - settings.t_top / 2) * nrm
+    sandwich = settings.buildup == "sandwich"
+    sheets = [top]
+    if sandwich:
+        bottom = grid + (off["bottom_upper"] - settings.t_bot / 2) * nrm
+        sheets.append(bottom)
+    sides = side_indices(q)                                          # (4, q)
+    per_panel = q * q * len(sheets) + (4 * (n + 1) if sandwich else 0)
+    base = np.arange(m)[:, None] * per_panel
+    coords = [s.reshape(m, q * q, 3) for s in sheets]
+    template = grid_quads(q, q)                                      # (n*n, 8) local
+    elements, groups_of, panels_of, side_of = [], [], [], []
+    for sheet in range(len(sheets)):
+        conn = base[:, :, None] + sheet * q * q + template[None]     # (m, n*n, 8)
+        elements.append(conn.reshape(-1, 8))
+        groups_of.append(np.full(m * n * n, sheet))
+        panels_of.append(np.repeat(np.arange(m), n * n))
+        side_of.append(np.full(m * n * n, -1))
+    if sandwich:
+        t_nodes = top.reshape(m, q * q, 3)[:, sides]                 # (m, 4, q, 3)
+        b_nodes = bottom.reshape(m, q * q, 3)[:, sides]
+        mids = 0.5 * (t_nodes[:, :, ::2] + b_nodes[:, :, ::2])       # (m, 4, n+1, 3)
+        coords.append(mids.reshape(m, -1, 3))
+        neighbours = np.asarray(developed.layout.side_neighbours)
+        own = (neighbours < 0) | (np.arange(m)[:, None] < neighbours)
+        p_idx, s_idx = np.nonzero(own)
+        a = np.arange(n)
+        t_id = base[p_idx] + sides[s_idx]                   # (r, q) top sheet nodes
+        b_id = t_id + q * q
+        m_id = (base[p_idx] + 2 * q * q + s_idx[:, None] * (n + 1)
+                + np.arange(n + 1)[None])                            # (r, n+1)
+        rib = np.stack([t_id[:, 2 * a], t_id[:, 2 * a + 2], b_id[:, 2 * a + 2], b_id[:, 2 * a],
+                        t_id[:, 2 * a + 1], m_id[:, a + 1], b_id[:, 2 * a + 1], m_id[:, a]],
+                       axis=-1)                                      # (r, n, 8)
+        shared = neighbours[p_idx, s_idx] >= 0
+        elements.append(rib.reshape(-1, 8))
+        groups_of.append(np.repeat(np.where(shared, 3, 2), n))
+        panels_of.append(np.repeat(p_idx, n))
+        side_of.append(np.repeat(s_idx, n))
+        other = np.repeat(np.where(shared, neighbours[p_idx, s_idx], -1), n)
+    all_coords = np.concatenate(coords, axis=1).reshape(-1, 3)
+    quads = np.concatenate(elements)
+    group = np.concatenate(groups_of)
+    panel = np.stack([np.concatenate(panels_of),
+                      np.concatenate([np.full(len(g), -1) for g in groups_of[:-1]] + [other])
+                      if sandwich else np.full(len(group), -1)], axis=1)
+    side = np.concatenate(side_of)
+    nodes, quads, _ = compact(all_coords, quads)
+    quads = _orient_sheets(nodes, quads, group, panel[:, 0], grid, nrm, n)
+    groups = [ShellGroup("TOP", settings.t_top), ShellGroup("BOT", settings.t_bot),
+              ShellGroup("RIB", settings.t_rib), ShellGroup("RIB2", 2 * settings.t_rib)]
+    model = ShellModel(nodes=nodes, quads=quads, triangles=np.zeros((0, 6), int), group=group,
+                       groups=tuple(groups if sandwich else groups[:1]),
+                       material=settings.material, panel=panel, side=side)
+    return _mass_corrections(model, developed, settings, parts, grid, nrm)
+
+
+def _orient_sheets(nodes, quads, group, panel, grid, nrm, n) -> np.ndarray:
+    """Sheet elements with their normal along the outward sample normal (flipped where not)."""
+    a, b, d = nodes[quads[:, 0]], nodes[quads[:, 1]], nodes[quads[:, 3]]
+    normal = np.cross(b - a, d - a)
+    q = grid.shape[1]
+    centre = nrm[:, q // 2, q // 2]                                  # (m, 3)
+    flip = (group < 2) & (np.einsum("ij,ij->i", normal, centre[panel]) < 0)
+    if flip.any():
+        quads = quads.copy()
+        quads[flip] = quads[flip][:, [0, 3, 2, 1, 7, 6, 5, 4]]
+    return quads
+
+
+def _mass_corrections(model: ShellModel, developed, settings: SandwichSettings, parts,
+                      grid, nrm) -> ShellModel:
+    """Density factors per group (rib plate area over rib shell area, holes) and the stiffener
+    masses lumped on the panel corner lines. See the module docstring."""
+    areas = model.element_areas()
+    groups = list(model.groups)
+    holes: dict[str, float] = {}
+    for part in parts:
+        for hole in part.holes:
+            holes[part.kind] = holes.get(part.kind, 0.0) + np.pi * hole.diameter ** 2 / 4
+    sheet_kind = {"TOP": "sheet-top", "BOT": "sheet-bottom"}
+    for g, grp in enumerate(groups):
+        if grp.name in sheet_kind:
+            area = areas[model.group == g].sum()
+            groups[g] = ShellGroup(grp.name, grp.thickness,
+                                   1.0 - holes.get(sheet_kind[grp.name], 0.0) / area)
+    lumped = None
+    if settings.buildup == "sandwich":
+        shell_area, plate_area = _rib_areas(model, developed, settings, areas)
+        factor = (plate_area - holes.get("rib", 0.0)) / shell_area
+        for g, grp in enumerate(groups):
+            if grp.name in ("RIB", "RIB2"):
+                groups[g] = ShellGroup(grp.name, grp.thickness, factor)
+        lumped = _stiffener_masses(model, developed, parts, grid, nrm, settings)
+    return model.replace(groups=tuple(groups), lumped_mass=lumped)
+
+
+def _rib_areas(model, developed, settings, areas) -> tuple[float, float]:
+    """Total rib shell area (a shared rib shell counted once per rib) and the estimated total
+    area of the rib plates, mm2. A plate is ``h`` tall where the shell is ``h + (t + b) / 2``
+    (its share of every shell element), and stops at its panel's neighbouring ribs: at each end
+    ``t_rib (1 + max(0, -cos)) / sin`` shorter, exactly as the build stage trims it."""
+    h, t_rib = settings.rib_height, settings.t_rib
+    height_share = h / (h + (settings.t_top + settings.t_bot) / 2)
+    rib = model.side >= 0
+    count = np.where(model.panel[rib, 1] >= 0, 2.0, 1.0)
+    shell_area = float((areas[rib] * count).sum())
+    planes = np.asarray(developed.side_planes, float)
+    unit = planes[..., :3] / np.linalg.norm(planes[..., :3], axis=-1, keepdims=True)
+    samples = np.asarray(developed.samples, float)
+    trim = 0.0
+    for s in range(4):
+        line = [samples[:, :, 0], samples[:, -1, :], samples[:, ::-1, -1],
+                samples[:, 0, ::-1]][s]                              # (m, k, 3) corner s -> s+1
+        for end, other in ((0, (s - 1) % 4), (-1, (s + 1) % 4)):
+            inward = line[:, 1] - line[:, 0] if end == 0 else line[:, -2] - line[:, -1]
+            inward /= np.linalg.norm(inward, axis=-1, keepdims=True)
+            n_o = unit[:, other]
+            along = np.einsum("ij,ij->i", n_o, inward)
+            cos = np.einsum("ij,ij->i", n_o, unit[:, s])
+            trim += float((t_rib * (1 + np.maximum(0.0, -cos)) / np.maximum(along, 0.1)).sum())
+    plate_area = shell_area * height_share - h * trim
+    return shell_area, plate_area
+
+
+def _stiffener_masses(model, developed, parts, grid, nrm, settings) -> np.ndarray | None:
+    """(n,) kg: every stiffener part's mass on its panel's corner line (top 1/6, mid 2/3,
+    bottom 1/6); ``None`` without stiffeners."""
+    stiffeners = [p for p in parts if p.kind == "stiffener"]
+    if not stiffeners:
+        return None
+    index = {pid: i for i, pid in enumerate(developed.panel_ids)}
+    q = grid.shape[1]
+    corner_ij = [(0, 0), (q - 1, 0), (q - 1, q - 1), (0, q - 1)]
+    off = settings.offsets
+    top_mid = off["top_outer"] - settings.t_top / 2
+    bot_mid = off["bottom_upper"] - settings.t_bot / 2
+    points, weights = [], []
+    for part in stiffeners:
+        corner = int(part.id.rsplit("-", 1)[-1])
+        i, j = corner_ij[corner]
+        p = index[part.panel_id]
+        g, nv = grid[p, i, j], nrm[p, i, j]
+        for depth, share in ((top_mid, 1 / 6), ((top_mid + bot_mid) / 2, 2 / 3),
+                             (bot_mid, 1 / 6)):
+            points.append(g + depth * nv)
+            weights.append(share * part.mass)
+    _, hit = cKDTree(model.nodes).query(np.array(points))
+    lumped = np.zeros(len(model.nodes))
+    np.add.at(lumped, hit, weights)
+    return lumped

@@ -1,0 +1,116 @@
+"""Classic shell benchmarks run through fabpanel's own model building (``patch_model``,
+``area_forces``/``edge_forces``, ``write_deck``) and CalculiX: they validate the element, the
+load integration, the deck and the result reading together. References: MacNeal & Harder, "A
+proposed standard set of problems to test finite element accuracy" (1985); Timoshenko &
+Woinowsky-Krieger, "Theory of plates and shells" (1959), k = 4 for a square plate.
+
+Each function writes its deck into ``folder`` and returns ``{"value", "reference", "error",
+"elements", "seconds"}`` plus what the tests pin.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .ccx import LoadCase, read_dat, read_frd, run_ccx, surface_nodes, write_deck
+from .loads import area_forces, edge_forces
+from .mesh import Material, patch_model
+
+#: Scordelis-Lo roof: vertical deflection at the free-edge midpoint, 0.3024 ft in mm
+SCORDELIS_LO_MM = 92.17
+#: pinched hemisphere: radial displacement under the loads
+PINCHED_HEMISPHERE = 0.094
+#: simply supported 1000 x 1000 x 10 mm plate, E 210 GPa, nu 0.3: k = 4 critical stress, MPa
+PLATE_BUCKLING_MPA = 4 * np.pi ** 2 * 210000.0 / (12 * (1 - 0.3 ** 2)) * (10 / 1000) ** 2
+
+
+def _solve(folder, name, model, cases=(), buckle=None, modes=5, threads=2):
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    deck = write_deck(model, folder / f"{name}.inp", list(cases), buckle=buckle, modes=modes)
+    run = run_ccx(deck, threads=threads)
+    return run, read_dat(run.dat), read_frd(run.frd)
+
+
+def mid_surface_value(frd, model, node: int, block: int = 0, name: str = "DISP") -> np.ndarray:
+    """A shell node's mid-surface result: mean of its expanded bottom and top nodes."""
+    element, local = (int(v[0]) for v in np.nonzero(model.quads == node))
+    bottom, top = surface_nodes(frd, model.n_elements)
+    values = frd.results(name)[block][2]
+    return 0.5 * (values[bottom[element, local]] + values[top[element, local]])
+
+
+def _result(value, reference, model, run, **extra) -> dict:
+    return {"value": float(value), "reference": float(reference),
+            "error": float(value / reference - 1), "elements": model.n_elements,
+            "seconds": round(run.seconds, 2), **extra}
+
+
+def scordelis_lo(folder, n: int = 16) -> dict:
+    """Full roof, n x n S8R, in mm: R 7.62 m, L 15.24 m, t 76.2 mm, E 20.684 GPa, nu 0, 4309.2 Pa
+    of surface; rigid diaphragms at the ends (u_y = u_z = 0), u_x fixed at the centre."""
+    radius, length, t = 7620.0, 15240.0, 76.2
+    phi = np.radians(np.linspace(-40.0, 40.0, 2 * n + 1))
+    x = np.linspace(-length / 2, length / 2, 2 * n + 1)
+    P, X = np.meshgrid(phi, x, indexing="ij")
+    grid = np.stack([X, radius * np.sin(P), radius * np.cos(P)], axis=-1)
+    model, index = patch_model(grid, t, Material("SL", 2.0684e4, 0.0, 1e-9, 1.0))
+    ends = np.r_[index[:, 0], index[:, -1]]
+    model = model.replace(constraints=((ends[ends >= 0], (2, 3)),
+                                       (np.array([index[n, n]]), (1,))))
+    load = area_forces(model, 4.3092e-3, (0, 0, -1))
+    run, _, frd = _solve(folder, "scordelis", model, [LoadCase("q", forces=load)])
+    u = mid_surface_value(frd, model, index[0, n])
+    return _result(-u[2], SCORDELIS_LO_MM, model, run, load_N=load.sum(axis=0).tolist(),
+                   area_mm2=float(radius * np.radians(80.0) * length))
+
+
+def pinched_hemisphere(folder, n: int = 16) -> dict:
+    """Full hemisphere with an 18 degree hole, n x n S8R per quarter: R 10, t 0.04,
+    E 6.825e7, nu 0.3, loads 2 outwards on x and inwards on y at the equator. Six translations
+    are fixed where the double symmetry keeps them zero (no reactions)."""
+    radius = 10.0
+    phi = np.linspace(0.0, 2 * np.pi, 8 * n + 1)
+    theta = np.radians(np.linspace(18.0, 90.0, 2 * n + 1))
+    F, T = np.meshgrid(phi, theta, indexing="ij")
+    grid = radius * np.stack([np.sin(T) * np.cos(F), np.sin(T) * np.sin(F), np.cos(T)], -1)
+    model, index = patch_model(grid, 0.04, Material("H", 6.825e7, 0.3, 1e-9, 1.0),
+                               tolerance=1e-6)
+    q = 2 * n                                       # grid rows at 0, 90, 180, 270 degrees
+    east, north, west, south = (index[r, -1] for r in (0, q, 2 * q, 3 * q))
+    model = model.replace(constraints=(
+        (np.array([east]), (2, 3)), (np.array([west]), (3,)), (np.array([north]), (1,)),
+        (np.array([index[0, 0]]), (2,)), (np.array([index[q, 0]]), (1,))))
+    forces = np.zeros((len(model.nodes), 3))
+    forces[[east, west, north, south]] = [[2, 0, 0], [-2, 0, 0], [0, -2, 0], [0, 2, 0]]
+    run, _, frd = _solve(folder, "hemisphere", model, [LoadCase("pinch", forces=forces)])
+    u_east = mid_surface_value(frd, model, east)
+    u_north = mid_surface_value(frd, model, north)
+    return _result(u_east[0], PINCHED_HEMISPHERE, model, run, inward_at_y=float(-u_north[1]))
+
+
+def square_plate(n: int = 16, a: float = 1000.0, t: float = 10.0):
+    """A flat a x a S8R plate in the xy plane: ``(model, grid index, edge nodes)``."""
+    x = np.linspace(0.0, a, 2 * n + 1)
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    model, index = patch_model(np.stack([X, Y, np.zeros_like(X)], axis=-1), t, Material())
+    edge = np.unique(np.r_[index[0], index[-1], index[:, 0], index[:, -1]])
+    return model, index, edge[edge >= 0]
+
+
+def plate_buckling(folder, n: int = 16) -> dict:
+    """Simply supported 1000 x 1000 x 10 mm plate (E 210 GPa, nu 0.3) under 1 MPa uniform
+    compression along x (consistent edge loads): the buckling factors are the critical
+    stresses in MPa."""
+    model, index, edge = square_plate(n)
+    model = model.replace(constraints=((edge, (3,)), (index[0][index[0] >= 0], (1,)),
+                                       (index[:, 0][index[:, 0] >= 0], (2,))))
+    load = edge_forces(model.nodes, index[-1], (-10.0, 0.0, 0.0))      # 1 MPa x 10 mm
+    run, dat, frd = _solve(folder, "plate", model, buckle=LoadCase("compression", forces=load),
+                           modes=5)
+    factors = np.sort(dat.buckling[dat.buckling > 0])
+    return _result(factors[0], PLATE_BUCKLING_MPA, model, run, factors=factors.tolist(),
+                   frd_factors=[v for v, _, _ in frd.results("DISP")],
+                   dat_factors=dat.buckling.tolist(), load_N=load.sum(axis=0).tolist())

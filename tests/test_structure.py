@@ -1,0 +1,349 @@
+"""Structure stage: shell benchmarks through fabpanel's own model building, loads, the sandwich
+model of built panels, the checks, and life without CalculiX.
+
+Benchmarks (references in notes/fem.md §3): Scordelis-Lo roof (MacNeal & Harder 1985), the
+pinched hemisphere (same), a simply supported plate in uniaxial compression (k = 4) and under
+pressure (Timoshenko). Every model is made with :func:`fabpanel.structure.patch_model`,
+:func:`area_forces` / :func:`edge_forces` and :func:`write_deck`, never a hand-written deck.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import cylinder_developed
+
+import fabpanel as fp
+from fabpanel.data import Hole, Part
+from fabpanel.structure import (
+    CcxMissing,
+    LoadCase,
+    Material,
+    analyse,
+    area_forces,
+    edge_forces,
+    gravity_forces,
+    patch_model,
+    read_dat,
+    read_frd,
+    run_ccx,
+    sandwich_model,
+    validation,
+    wind_exposed,
+    write_deck,
+)
+from fabpanel.structure.ccx import read_knots, surface_nodes
+from fabpanel.structure.checks import combinations, mode_extent, span_of, von_mises
+from fabpanel.structure.mesh import grid_quads, merge_nodes, resample_grids, sandwich_settings
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None,
+                               reason="CalculiX (ccx) is not installed: sudo apt-get install "
+                                      "calculix-ccx")
+
+
+def _solve(tmp_path, model, cases=(), buckle=None, modes=5):
+    deck = write_deck(model, tmp_path / "job.inp", list(cases), buckle=buckle, modes=modes)
+    run = run_ccx(deck, threads=2)
+    return run, read_dat(run.dat), read_frd(run.frd)
+
+
+def _mid_surface(frd, model, element, local, block=0, name="DISP"):
+    """Mid-surface value of element-local node ``local``: mean of its top and bottom nodes."""
+    bottom, top = surface_nodes(frd, model.n_elements)
+    values = frd.results(name)[block][2]
+    return 0.5 * (values[bottom[element, local]] + values[top[element, local]])
+
+
+def _element_of(model, node):
+    element, local = np.nonzero(model.quads == node)
+    return int(element[0]), int(local[0])
+
+
+# --------------------------------------------------------------------------------------------
+# benchmarks
+# --------------------------------------------------------------------------------------------
+@needs_ccx
+def test_scordelis_lo_roof(tmp_path):
+    # full roof, 16 x 16 S8R; reference 0.3024 ft = 92.17 mm (measured: -0.15 %)
+    found = validation.scordelis_lo(tmp_path)
+    np.testing.assert_allclose(found["load_N"], [0, 0, -4.3092e-3 * found["area_mm2"]],
+                               rtol=1e-6)
+    assert abs(found["error"]) < 0.02, found
+    assert abs(found["error"]) < 0.005
+
+
+@needs_ccx
+def test_pinched_hemisphere(tmp_path):
+    # full hemisphere, 16 x 16 S8R per quarter; reference 0.094 at both load pairs
+    found = validation.pinched_hemisphere(tmp_path)
+    assert abs(found["error"]) < 0.02, found
+    assert abs(found["inward_at_y"] / 0.094 - 1) < 0.02, found
+
+
+@needs_ccx
+def test_simply_supported_plate_buckling(tmp_path):
+    # k = 4: 75.92 MPa, then 118.6 (m = 2) and 210.9 (m = 3)
+    found = validation.plate_buckling(tmp_path)
+    assert found["reference"] == pytest.approx(75.92, abs=0.01)
+    np.testing.assert_allclose(found["load_N"], [-1e4, 0, 0])
+    assert abs(found["error"]) < 0.02, found
+    np.testing.assert_allclose(found["factors"][1:3], [118.6, 210.9], rtol=0.03)
+    # the factors are also the .frd mode headers, after a first block with the static preload
+    headers = found["frd_factors"]
+    assert len(headers) == len(found["dat_factors"]) + 1 and headers[0] == 0
+    np.testing.assert_allclose(headers[1:], found["dat_factors"], rtol=1e-6)
+
+
+@needs_ccx
+def test_plate_under_pressure_surface_stresses_include_bending(tmp_path):
+    # Timoshenko (nu = 0.3): w = 0.00406 q a^4 / D = 0.2111 mm, centre stress 2.874 MPa. The
+    # expanded surface nodes of OUTPUT=3D carry the bending stress (OUTPUT=2D would average it
+    # away through the thickness: notes/fem.md §0.3)
+    model, index, edge = validation.square_plate()
+    model = model.replace(supports=edge)
+    load = area_forces(model, 1e-3, (0, 0, -1))
+    run, dat, frd = _solve(tmp_path, model, [LoadCase("q", forces=load)])
+    centre = index[16, 16]
+    e, local = _element_of(model, centre)
+    assert abs(-_mid_surface(frd, model, e, local)[2] / 0.2111 - 1) < 0.02
+    bottom, top = surface_nodes(frd, model.n_elements)
+    stress = frd.results("STRESS")[0][2]
+    s_top, s_bot = stress[top[e, local]], stress[bottom[e, local]]
+    assert abs(s_bot[0] / 2.874 - 1) < 0.03 and abs(-s_top[0] / 2.874 - 1) < 0.03
+    # the expanded nodes lie t/2 below and above the mid-surface, in the frd order pinned here
+    np.testing.assert_allclose(frd.nodes[bottom[e, local]], model.nodes[centre] - [0, 0, 5],
+                               atol=1e-6)
+    np.testing.assert_allclose(frd.nodes[top[e, local]], model.nodes[centre] + [0, 0, 5],
+                               atol=1e-6)
+    # RF = reaction + loads on the supported nodes (the trap): the check closes with that share
+    on_supports = load[edge].sum(axis=0)
+    reaction = dat.forces[0] - on_supports
+    np.testing.assert_allclose(reaction, -load.sum(axis=0), rtol=1e-6, atol=1e-6)
+    assert abs(on_supports[2]) > 1e-3 * abs(load[:, 2].sum())        # the trap is real here
+    assert len(read_knots(run.deck)) == 0                             # a flat plate: no knots
+
+
+# --------------------------------------------------------------------------------------------
+# loads and small kernels (no CalculiX)
+# --------------------------------------------------------------------------------------------
+def _cylinder_patch(n=8, radius=4000.0, length=3000.0, arc=np.pi):
+    t = np.linspace(0.0, arc, 2 * n + 1)
+    x = np.linspace(0.0, length, 2 * n + 1)
+    T, X = np.meshgrid(t, x, indexing="ij")
+    # angle from +y over the crown to -y: the normal d/dt x d/dx points outwards
+    grid = np.stack([X, radius * np.cos(T), radius * np.sin(T)], axis=-1)
+    return patch_model(grid, 3.0, Material())
+
+
+def test_snow_is_the_horizontal_projection_and_wind_meets_the_windward_half():
+    model, _ = _cylinder_patch()
+    snow = area_forces(model, 0.56e-3, (0, 0, -1), projected=True)
+    np.testing.assert_allclose(snow.sum(axis=0), [0, 0, -0.56e-3 * 8000.0 * 3000.0], rtol=1e-6)
+    # wind along +y meets the half of the vault facing -y, projected on the xz plane
+    exposed = wind_exposed(model, np.ones(model.n_elements, bool), (0, 1, 0))
+    centres = model.nodes[model.quads].mean(axis=1)
+    assert exposed.any() and np.all(centres[exposed, 1] < 0)
+    wind = area_forces(model, 0.8e-3, (0, 1, 0), exposed, projected=True)
+    np.testing.assert_allclose(wind.sum(axis=0), [0, 0.8e-3 * 4000.0 * 3000.0, 0], rtol=1e-6)
+    # a second vault upwind of the first shades it completely
+    two, _ = _cylinder_patch()
+    shifted = two.nodes + [0, -20000.0, 0]
+    both = two.replace(nodes=np.r_[two.nodes, shifted],
+                       quads=np.r_[two.quads, two.quads + len(two.nodes)],
+                       group=np.r_[two.group, two.group])
+    exposed = wind_exposed(both, np.ones(both.n_elements, bool), (0, 1, 0))
+    assert exposed[len(two.quads):].any() and not exposed[: len(two.quads)].any()
+
+
+def test_self_weight_edge_loads_and_kernels():
+    model, _ = _cylinder_patch()
+    weight = gravity_forces(model)
+    area = 4000.0 * np.pi * 3000.0
+    np.testing.assert_allclose(weight.sum(axis=0), [0, 0, -7.85e-6 * 3 * area * 9.81],
+                               rtol=1e-4)             # quadratic elements over 22.5 deg
+    np.testing.assert_allclose(model.element_areas().sum(), area, rtol=1e-4)
+    chain = np.arange(5)
+    nodes = np.c_[np.linspace(0, 400, 5), np.zeros(5), np.zeros(5)]
+    line = edge_forces(nodes, chain, (0, 0, 1.0))
+    np.testing.assert_allclose(line[:, 2], np.array([1, 4, 2, 4, 1]) * 200 / 6, rtol=1e-12)
+    assert grid_quads(3, 5).tolist() == [[0, 10, 12, 2, 5, 11, 7, 1], [2, 12, 14, 4, 7, 13, 9, 3]]
+    unique, index = merge_nodes(np.array([[0, 0, 0], [1, 0, 0], [0, 0, 1e-5], [1, 0, 0.0]]))
+    assert len(unique) == 2 and index.tolist() == [0, 1, 0, 1]
+    grids = np.random.default_rng(0).random((2, 9, 9, 3))
+    np.testing.assert_array_equal(resample_grids(grids, 5), grids[:, ::2, ::2])
+    assert np.allclose(resample_grids(grids, 7)[:, 0, 0], grids[:, 0, 0])
+    assert von_mises(np.array([100.0, 0, 0, 0, 0, 0])) == pytest.approx(100.0)
+    assert von_mises(np.array([0.0, 0, 0, 50, 0, 0])) == pytest.approx(50 * np.sqrt(3))
+    combos = combinations(["G", "S", "W1", "W2"], 1.2, 1.5)
+    names = [c.name for c in combos]
+    assert len(combos) == 18 and "1.2G+1.5S-1.5W2" in names and "G+S+W1" in names
+    assert combos[0].factors.tolist() == [1.2, 1.5, 0.0, 0.0]
+    # a merged rib (last element) belongs to both its panels
+    panels, share = mode_extent(np.array([1.0, 0.2, 0.7, 0.55]),
+                                np.array([[0, -1], [1, -1], [2, -1], [3, 1]]), 4)
+    assert panels.tolist() == [0, 2, 1, 3] and share.tolist() == [1.0, 0.7, 0.55, 0.55]
+    nodes = np.array([[0, 0, 0], [8000, 0, 0], [4000, 0, 4000.0]])
+    assert span_of(nodes, np.array([0, 1])) == pytest.approx(8000.0)
+
+
+# --------------------------------------------------------------------------------------------
+# the sandwich model of built panels
+# --------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def cylinder_model():
+    developed = cylinder_developed(radius=4000.0, length=2400.0, arc=np.pi / 3)
+    job = fp.Job.from_dict({})
+    return job, fp.build(developed, job, jobs=1)
+
+
+def test_sandwich_mesh_shares_nodes_and_keeps_the_part_mass(cylinder_model):
+    job, model = cylinder_model
+    shell = sandwich_model(model.developed, sandwich_settings(job, 2), model.parts)
+    names = [g.name for g in shell.groups]
+    # 4 panels (2 x 2): 2 x 4 sheets x 4 elements; 12 rib sides of which 4 shared, 2 elements
+    counts = {name: int((shell.group == i).sum()) for i, name in enumerate(names)}
+    assert counts == {"TOP": 16, "BOT": 16, "RIB": 16, "RIB2": 8}
+    assert shell.groups[names.index("RIB2")].thickness == 2 * job.sandwich.rib_thickness
+    # every rib's top and bottom edge nodes are sheet nodes: the parts share the junction lines
+    rib = shell.side >= 0
+    sheet_nodes = set(shell.quads[~rib].ravel().tolist())
+    edges = shell.quads[rib][:, [0, 1, 2, 3, 4, 6]]
+    assert set(edges.ravel().tolist()) <= sheet_nodes
+    # sheet normals point outwards (radially), so ccx makes knots only at junctions
+    a, b, d = (shell.nodes[shell.quads[~rib][:, i]] for i in (0, 1, 3))
+    normal = np.cross(b - a, d - a)
+    radial = shell.nodes[shell.quads[~rib]].mean(axis=1) * [0, 1, 1]
+    assert np.all(np.einsum("ij,ij->i", normal, radial) > 0)
+    # mass: rib shells are taller and longer than the plates; the density factor (from the
+    # geometry) brings the model to the parts' mass
+    fe_mass = float((shell.density * shell.thickness * shell.element_areas()).sum())
+    assert abs(fe_mass / model.mass - 1) < 1e-3
+    plain = float((shell.material.density * shell.thickness * shell.element_areas()).sum())
+    assert abs(plain / model.mass - 1) > 5e-3                   # the correction matters
+
+
+def test_stiffener_masses_and_holes_reach_the_shell_model(cylinder_model):
+    job, model = cylinder_model
+    top = next(p for p in model.parts if p.id == "P001-TOP")
+    holed = replace(top, holes=(Hole((0.0, 0.0), 40.0, "access"),) * 10)
+    stiffeners = tuple(Part(id=f"{pid}-STF-{c}", kind="stiffener", panel_id=pid, material="S235",
+                            thickness=8.0, volume=1e5, area=1.25e4, mass=0.785, brep=b"")
+                       for pid in model.developed.panel_ids for c in range(4))
+    parts = tuple(holed if p.id == "P001-TOP" else p for p in model.parts) + stiffeners
+    plain = sandwich_model(model.developed, sandwich_settings(job, 2), model.parts)
+    shell = sandwich_model(model.developed, sandwich_settings(job, 2), parts)
+    assert shell.lumped_mass.sum() == pytest.approx(16 * 0.785)
+    # lumped on the corner lines: the corner nodes of the panel sheets and their rib mid node
+    loaded = shell.nodes[np.nonzero(shell.lumped_mass)[0]]
+    corners = model.developed.layout.vertices                      # 9, on the cylinder
+    radial = corners * [0, 1, 1] / 4000.0
+    rel = loaded[:, None] - corners[None]
+    off_line = np.linalg.norm(rel - np.einsum("pvk,vk->pv", rel, radial)[..., None] * radial,
+                              axis=-1).min(axis=1)
+    assert len(loaded) == 9 * 3 and np.all(off_line < 1e-6)        # 3 nodes per corner line
+    hole_mass = 10 * np.pi * 20.0 ** 2 * top.thickness * job.material.density
+    top_group = [g.name for g in shell.groups].index("TOP")
+    mass = lambda s: float((s.density * s.thickness * s.element_areas())[s.group == top_group]
+                           .sum())
+    assert mass(plain) - mass(shell) == pytest.approx(hole_mass, rel=1e-9)
+    weight = gravity_forces(shell).sum(axis=0)[2]
+    assert -weight / 9.81 == pytest.approx(
+        float((shell.density * shell.thickness * shell.element_areas()).sum()) + 16 * 0.785)
+
+
+@pytest.fixture(scope="module")
+def vault_structure(tmp_path_factory):
+    job = fp.Job.from_toml(EXAMPLES / "barrel-vault.toml")
+    # wind across the vault (the example's blows along its axis and meets only the rims)
+    job = job.replace(structure={"element_size": "1.3 m"},
+                      loads={"wind_direction": [0.0, 1.0], "wind_opposite": True})
+    result = fp.run(job, until="build", write=False, jobs=2)
+    folder = tmp_path_factory.mktemp("vault-structure")
+    return result, analyse(result.model, job, folder=folder), folder
+
+
+@needs_ccx
+def test_barrel_vault_example_reactions_equal_loads_and_mass_equals_parts(vault_structure):
+    result, structure, folder = vault_structure
+    s = structure.summary
+    assert structure.analysed and s["mesh"]["elements_per_side"] == 1
+    assert s["mass"]["parts_kg"] == pytest.approx(result.model.mass, rel=1e-6)
+    assert abs(s["mass"]["error"]) < 0.005 and s["mass"]["ok"]
+    for name, case in s["load_cases"].items():
+        assert case["ok"] and case["error"] < 1e-3, (name, case)
+    g = s["load_cases"]["G"]
+    assert -g["applied_N"][2] == pytest.approx(result.model.mass * 9.81, rel=0.005)
+    snow = s["load_cases"]["S"]                      # 0.56 kN/m2 on 12 m x 8 m of plan
+    assert -snow["applied_N"][2] == pytest.approx(0.56e-3 * 12000 * 8000, rel=1e-3)
+    # wind across the vault, both ways: on the windward quarter circles, projected: 4 m x 12 m
+    for name, sign in (("W1", 1), ("W2", -1)):
+        np.testing.assert_allclose(s["load_cases"][name]["applied_N"],
+                                   [0, sign * 0.8e-3 * 4000 * 12000, 0], rtol=1e-3, atol=1)
+    assert "1.2G+1.5S-1.5W2" in s["combinations"]["ULS"] and "G+W1" in s["combinations"]["SLS"]
+    # the vault stands on its two springing lines; its span is its width
+    assert s["deflection"]["span_mm"] == pytest.approx(8000, rel=0.05)
+    assert s["supports"]["nodes"] > 20
+    assert 0 < s["stress"]["utilisation"] < 1 and s["stress"]["part"].startswith("P")
+    assert len(s["buckling"]["factors"]) >= 5 and min(s["buckling"]["factors"]) > 0
+    assert s["buckling"]["factors"] == sorted(s["buckling"]["factors"])
+    assert s["buckling"]["modes"][0]["panels"]
+    # one element per side: said plainly that local sheet buckling is out of reach
+    assert "coarse-buckling-mesh" in [i.code for i in structure.issues]
+    assert s["buckling"]["note"]
+    assert set(s["panels"]) == set(result.model.developed.panel_ids)
+    assert s["mesh"]["knots"] > 0 and s["mesh"]["knots_off_junctions"] == 0
+    for name in ("static.inp", "static.dat", "static.frd", "buckle.inp", "buckle.dat"):
+        assert (folder / name).is_file() and f"structure/{name}" in s["files"]
+    assert structure.displacement.shape == structure.shell.nodes.shape
+    json.dumps(s)
+
+
+# --------------------------------------------------------------------------------------------
+# without CalculiX
+# --------------------------------------------------------------------------------------------
+def test_missing_ccx_is_reported_or_raised(cylinder_model, monkeypatch, tmp_path):
+    job, model = cylinder_model
+    monkeypatch.setenv("FABPANEL_CCX", str(tmp_path / "no-ccx-here"))
+    structure = analyse(model, job)
+    assert not structure.analysed and not structure.summary["ccx_found"]
+    assert "sudo apt-get install calculix-ccx" in structure.summary["reason"]
+    assert structure.issues[0].code == "ccx-missing"
+    with pytest.raises(CcxMissing, match="apt-get install calculix-ccx") as err:
+        analyse(model, job.replace(structure={"required": True}))
+    assert err.value.exit_code == 2 and isinstance(err.value, fp.SolverError)
+
+
+def test_cli_export_without_ccx_completes_unless_required(tmp_path, monkeypatch):
+    from click.testing import CliRunner
+
+    from fabpanel.cli import main
+
+    sys.path.insert(0, str(EXAMPLES))
+    from barrel_vault import write_barrel_vault_step
+
+    step = write_barrel_vault_step(tmp_path / "vault.step", radius=2000.0, length=1200.0)
+    job = tmp_path / "job.toml"
+    job.write_text(f'[input]\npath = "{step.name}"\n[panelize]\nmethod = "grid"\ngrid_u = 2\n'
+                   f'grid_v = 1\n[develop]\nmethod = "project"\n[output]\nstep = false\n'
+                   f'glb = false\n')
+    monkeypatch.setenv("FABPANEL_CCX", str(tmp_path / "no-ccx-here"))
+    done = CliRunner().invoke(main, ["export", str(job), "--out", str(tmp_path / "a")])
+    assert done.exit_code == 0, done.output
+    summary = json.loads((tmp_path / "a" / "report" / "summary.json").read_text())
+    assert summary["structure"]["analysed"] is False
+    assert "calculix-ccx" in summary["structure"]["reason"]
+    assert (tmp_path / "a" / "cut" / "nests").is_dir()
+    refused = CliRunner().invoke(main, ["export", str(job), "--out", str(tmp_path / "b"),
+                                        "--require-fem"])
+    assert refused.exit_code == 2
+    assert "apt-get install calculix-ccx" in refused.output
+    assert not (tmp_path / "b").exists()
+    assert os.environ["FABPANEL_CCX"]
