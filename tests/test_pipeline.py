@@ -208,9 +208,9 @@ def test_force_replaces_only_after_success(tmp_path):
 
 def test_mesh_input_runs_end_to_end(tmp_path):
     job = fp.Job.for_input(EXAMPLES / "barrel-vault.obj", units="m",
-                           panelize={"grid_u": 6, "grid_v": 6}, cutting={"nest_time": "0 s"})
+                           panelize={"grid_u": 6, "grid_v": 10}, cutting={"nest_time": "0 s"})
     result = fp.run(job, out_dir=tmp_path / "out", jobs=2, until="build")
-    assert len(result.model.parts) == 10 * 36
+    assert len(result.model.parts) == 10 * 60
     assert not [i for i in result.issues if i.severity == "error"]
     assert result.flat is None
     assert set(result.developed.classes) == {"single-curved"}

@@ -225,7 +225,12 @@ def test_sandwich_mesh_shares_nodes_and_keeps_the_part_mass(cylinder_model):
     # mass: rib shells are taller and longer than the plates; the density factor (from the
     # geometry) brings the model to the parts' mass
     fe_mass = float((shell.density * shell.thickness * shell.element_areas()).sum())
-    assert abs(fe_mass / model.mass - 1) < 1e-3
+    # the corner stiffeners are not meshed: their mass is lumped on the corner lines
+    stiffeners = sum(p.mass for p in model.parts if p.kind == "stiffener")
+    assert stiffeners > 0
+    np.testing.assert_allclose(shell.lumped_mass.sum(), stiffeners, rtol=1e-9)
+    # within the issue's 0.5 % (measured 0.16 %: rib ends and bolt holes against the shells)
+    assert abs((fe_mass + stiffeners) / model.mass - 1) < 5e-3
     plain = float((shell.material.density * shell.thickness * shell.element_areas()).sum())
     assert abs(plain / model.mass - 1) > 5e-3                   # the correction matters
 
@@ -237,8 +242,9 @@ def test_stiffener_masses_and_holes_reach_the_shell_model(cylinder_model):
     stiffeners = tuple(Part(id=f"{pid}-STF-{c}", kind="stiffener", panel_id=pid, material="S235",
                             thickness=8.0, volume=1e5, area=1.25e4, mass=0.785, brep=b"")
                        for pid in model.developed.panel_ids for c in range(4))
-    parts = tuple(holed if p.id == "P001-TOP" else p for p in model.parts) + stiffeners
-    plain = sandwich_model(model.developed, sandwich_settings(job, 2), model.parts)
+    base = tuple(p for p in model.parts if p.kind != "stiffener")
+    parts = tuple(holed if p.id == "P001-TOP" else p for p in base) + stiffeners
+    plain = sandwich_model(model.developed, sandwich_settings(job, 2), base)
     shell = sandwich_model(model.developed, sandwich_settings(job, 2), parts)
     assert shell.lumped_mass.sum() == pytest.approx(16 * 0.785)
     # lumped on the corner lines: the corner nodes of the panel sheets and their rib mid node

@@ -350,7 +350,7 @@ def _section_edge(face: TrimmedFace, plane: np.ndarray, frame: np.ndarray, thick
     up = face.normals(np.array([[0.5, 0.5]]))[0] @ frame[:3, 1]
     sign = 1.0 if up >= 0 else -1.0
     pick = np.minimum if top else np.maximum
-    return np.c_[xs, sign * pick(sign * heights[0], sign * heights[1])]
+    return np.c_[xs, sign * pick.reduce([sign * h for h in heights])]
 
 
 def _trim_chains(chains: list[np.ndarray], frame: np.ndarray, plane: np.ndarray, inset: float,
