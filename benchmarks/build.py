@@ -1,7 +1,7 @@
 """Time and peak memory of the build stage (OCCT solids, checks) and its model files (STEP
 assembly, per-panel STEP, GLB, 3DM) on example shells at two panel densities.
 
-    .venv/bin/python benchmarks/build.py [--jobs N] [--runs one-opening:1.8 m,one-opening:1.2 m]
+    .venv/bin/python benchmarks/build.py [--jobs N] [--runs barrel-vault:1.2 m,one-opening:1.8 m]
 
 Each run first panelises and develops the example (not timed), then builds and writes the model
 files. Prints one line per run and, last, one JSON object with all figures.
@@ -32,7 +32,7 @@ def _peak_mb() -> tuple[float, float]:
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--jobs", type=int, default=None)
-    parser.add_argument("--runs", default="one-opening:1.8 m,one-opening:1.2 m",
+    parser.add_argument("--runs", default="barrel-vault:1.2 m,one-opening:1.8 m",
                         help="example:panel size, comma separated")
     args = parser.parse_args()
     figures = []

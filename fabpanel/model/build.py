@@ -158,8 +158,8 @@ def _model_metrics(developed: DevelopedPanels, parts: list[Part], results: list,
             if value > tol.rib_planarity:
                 issues.append(Issue("plate-not-planar", f"plate faces deviate {value:.3f} mm "
                                     f"from flat (> {tol.rib_planarity} mm)", part_id))
-        for code, part_id, message in result["findings"]:
-            issues.append(Issue(code, message, part_id))
+        for code, part_id, message, *severity in result["findings"]:
+            issues.append(Issue(code, message, part_id, *severity))
         if not meas["valid"]:
             issues.append(Issue("invalid-solid", "a solid of this panel is not valid in OCCT",
                                 pid, "error"))

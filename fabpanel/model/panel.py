@@ -45,6 +45,9 @@ SECTION_POINTS = 257
 GRID_REFINE = 4
 #: clear distance an access opening keeps from ribs and stiffeners, mm
 ACCESS_MIN_CLEAR = 3.0
+#: a plate is not cut at another plate's plane whose normal has less than this component along
+#: the plate (sin 30 degrees): that plane runs along the plate instead of across its end
+TANGENT_RIB = 0.5
 #: corners opening wider than this get no stiffener (degrees): the two ribs are nearly one line
 MAX_STIFFENED_ANGLE = 150.0
 #: points per access opening outline (a periodic cubic through 24 points is within 1e-4 mm of
@@ -100,10 +103,23 @@ def build_panel(payload: dict[str, Any]) -> dict[str, Any]:
                             faces["bottom_lower"], payload["t_bot"], payload["fibre"], k,
                             access == "bottom", bolts, planes, payload))
         ribs, stiffeners = [], []
+        k_mid = samples.shape[0] // 2
         for side in range(4):
-            ribs.append(_rib(f"{pid}-RIB-{side}", side, planes, top_inner,
-                             faces["bottom_upper"], payload["t_rib"], bolts.get(side),
-                             payload["bolt"]["diameter"]))
+            normal = side_rows(normals)[side][k_mid]
+            tilt = float(np.degrees(np.arcsin(min(1.0, abs(normal @ planes[side, :3])))))
+            if tilt > 90.0 - 30.0:
+                findings.append(("rib-plane-tangent", f"{pid}-RIB-{side}", (f"rib plane within "
+                                 f"{90 - tilt:.0f} degrees of the sheet: the rib lies nearly "
+                                 "flat, not between the sheets; change the layout at this edge")))
+        for side in range(4):
+            name = f"{pid}-RIB-{side}"
+            try:
+                ribs.append(_rib(name, side, planes, top_inner, faces["bottom_upper"],
+                                 payload["t_rib"], bolts.get(side), payload["bolt"]["diameter"]))
+            except KernelError as err:
+                # a degenerate panel edge (e.g. a boundary rib plane nearly tangent to the
+                # sheet): the rest of the panel is built, the missing rib is an error issue
+                findings.append(("plate-failed", name, f"not built: {err}", "error"))
         lengths = [float(np.linalg.norm(np.diff(row, axis=0), axis=1).sum())
                    for row in side_rows(samples)]
         short = [s for s in range(4) if lengths[s] < 2 * payload["stiffener_offset"] + 1.0]
@@ -128,6 +144,8 @@ def build_panel(payload: dict[str, Any]) -> dict[str, Any]:
         parts += ribs + stiffeners
         measures["plate_planarity_mm"] = {r["id"]: r["planarity"] for r in ribs + stiffeners}
         findings += _clearance_findings(pid, parts, bolts, planes, payload)
+    findings += [("access-clash", part["id"], message) for part in parts
+                 for message in part.get("dropped", ())]
     measures["bolts"] = int(sum(len(b) for b in bolts.values()))
     measures["access_openings"] = int(sum(len(p["holes"]) for p in parts
                                           if p["kind"].startswith("sheet")))
@@ -156,7 +174,8 @@ def _sheet(name: str, kind: str, outer: TrimmedFace, inner: TrimmedFace, thickne
     mid_area = _grid_area((grid_a + grid_b) / 2)
     holes: list[Hole] = []
     openings = np.zeros((0, 3))
-    loops = []
+    loops: list = []
+    dropped: list[str] = []
     if with_access and bolts:
         bolt = payload["bolt"]
         diameter = bolt["access_diameter"]
@@ -164,15 +183,30 @@ def _sheet(name: str, kind: str, outer: TrimmedFace, inner: TrimmedFace, thickne
         aims = joints.merge_close(np.concatenate(
             [joints.access_points(b, planes[s], payload["t_rib"], diameter)
              for s, b in sorted(bolts.items())]), diameter + ACCESS_MIN_CLEAR)
-        uv = occ.project_to_surface(cavity.surface, aims)
-        openings, _, _ = occ.surface_derivatives(cavity.surface, uv)
-        axes = cavity.normals(uv)
-        loops = list(zip(hole_loops(outer.surface, openings, axes, diameter / 2, name),
-                         hole_loops(inner.surface, openings, axes, diameter / 2, name)))
-        holes = [Hole((float(u), float(v)), float(diameter), "access") for u, v in uv]
-        mid_area -= len(holes) * np.pi * diameter ** 2 / 4
-    solid = occ.slab(outer.surface, inner.surface, name, loops)
-    return {"id": name, "kind": kind, "thickness": thickness, "volume": occ.volume(solid),
+        # an opening must clear every rib of the panel (and so lie inside the sheet)
+        clear = (aims @ planes[:, :3].T - planes[:, 3] - payload["t_rib"]).min(axis=1)
+        fits = clear >= diameter / 2 + ACCESS_MIN_CLEAR
+        dropped += [f"access opening at {np.round(a, 1).tolist()} would run under a rib "
+                    f"({c - diameter / 2:.1f} mm clear); its bolt is reached from elsewhere"
+                    for a, c in zip(aims[~fits], clear[~fits])]
+        aims = aims[fits]
+        if len(aims):
+            uv = occ.project_to_surface(cavity.surface, aims)
+            openings, _, _ = occ.surface_derivatives(cavity.surface, uv)
+            axes = cavity.normals(uv)
+            loops = list(zip(hole_loops(outer.surface, openings, axes, diameter / 2, name),
+                             hole_loops(inner.surface, openings, axes, diameter / 2, name)))
+            holes = [Hole((float(u), float(v)), float(diameter), "access") for u, v in uv]
+    try:
+        solid = occ.slab(outer.surface, inner.surface, name, loops)
+    except KernelError as err:
+        if not loops:
+            raise
+        dropped.append(f"access openings left out: the sheet with them was not valid ({err})")
+        solid = occ.slab(outer.surface, inner.surface, name)
+        holes, openings = [], np.zeros((0, 3))
+    mid_area -= len(holes) * np.pi * payload["bolt"]["access_diameter"] ** 2 / 4
+    return {"dropped": dropped, "id": name, "kind": kind, "thickness": thickness, "volume": occ.volume(solid),
             "area": float(mid_area), "brep": occ.to_brep(solid), "surface_grid": surface_grid,
             "holes": holes, "openings": openings, "valid": occ.is_valid(solid),
             "clash_shape": ("slab", grid_a, grid_b)}
@@ -343,8 +377,13 @@ def _section_edge(face: TrimmedFace, plane: np.ndarray, frame: np.ndarray, thick
             raise KernelError(f"{name}: its plane does not cut the sheet")
         # else: a rib plane nearly tangent to the sheet: its inner face misses the sheet, the
         # edge alone is used (the clash check measures what that leaves)
-    lo = max(p[0, 0] for p in profiles)
-    hi = min(p[-1, 0] for p in profiles)
+    if edge is not None:
+        # a rib runs along its whole edge; the section through its inner face ends at the
+        # neighbouring rib planes and is held at its end value beyond (the trim cuts there)
+        lo, hi = profiles[0][0, 0], profiles[0][-1, 0]
+    else:
+        lo = max(p[0, 0] for p in profiles)
+        hi = min(p[-1, 0] for p in profiles)
     xs = np.linspace(lo, hi, points)
     heights = [np.interp(xs, p[:, 0], p[:, 1]) for p in profiles]
     up = face.normals(np.array([[0.5, 0.5]]))[0] @ frame[:3, 1]
@@ -358,6 +397,10 @@ def _trim_chains(chains: list[np.ndarray], frame: np.ndarray, plane: np.ndarray,
     """Cut both edge chains of a plate (extruded ``thickness`` along the frame's z) where the
     whole plate thickness stays ``inset`` mm inside ``plane`` (normal into the panel)."""
     a, b, c = (plane[:3] @ frame[:3, i] for i in range(3))
+    if abs(a) < TANGENT_RIB:
+        # the other plate's plane runs along this one (a boundary rib plane nearly tangent to
+        # the sheet, reported as rib-plane-tangent): a cut there would remove the whole plate
+        return chains
     limit = plane[3] + inset - plane[:3] @ frame[:3, 3] - min(0.0, c * thickness)
     chains = [clip_polyline(chain, np.array([a, b]), limit) for chain in chains]
     if min(len(chain) for chain in chains) < 2:
@@ -424,7 +467,9 @@ def _clearance_findings(pid: str, parts: list[dict], bolts: dict[int, np.ndarray
     by_id = {p["id"]: p for p in parts}
     d_bolt = payload["bolt"]["diameter"]
     for side in bolts:
-        rib = by_id[f"{pid}-RIB-{side}"]
+        rib = by_id.get(f"{pid}-RIB-{side}")
+        if rib is None:
+            continue
         outline = Polygon(rib["outline"])
         for hole in rib["holes"]:
             margin = outline.exterior.distance(Point(hole.centre)) - hole.diameter / 2
