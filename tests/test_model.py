@@ -353,3 +353,12 @@ def test_design_3dm_holds_exact_panel_surfaces_and_layers(model, developed, tmp_
             np.testing.assert_allclose([point.X, point.Y, point.Z], developed.samples[p, i, j],
                                        atol=1e-6)
     assert sorted(dot.Geometry.Text for dot in by_layer["labels"]) == list(developed.panel_ids)
+
+
+def test_stiffeners_too_long_for_the_sides_are_skipped_and_reported(developed, job):
+    long = build(developed, job.replace(sandwich={"stiffener_offset": "700 mm"}), jobs=1)
+    # the panels are 1200 x 2094 mm: two 700 mm stiffeners would cross on the short sides
+    assert long.metrics["counts"].get("stiffener", 0) == 0
+    skipped = [i for i in long.issues if i.code == "stiffeners-skipped"]
+    assert sorted(i.item for i in skipped) == list(developed.panel_ids)
+    assert long.metrics["all_valid"] and long.metrics["clash"]["clashes"] == 0
