@@ -33,19 +33,26 @@ def test_interpolation_parameters_are_uniform_on_unit_square():
     assert surface.UDegree() == 3 and surface.VDegree() == 3
 
 
-def test_thicken_by_simple_offsets_along_face_normal():
-    """Negative thickness goes against dS/du x dS/dv (here: inward on the cylinder)."""
-    grid = cylinder_developed(n_arc=1, n_len=1, arc=np.pi / 6, length=1000.0).samples[0]
-    surface, _ = occ.bspline_surface(grid)
-    solid = occ.thicken(occ.face_from_surface(surface), -5.0)
+def _slab(d, thickness):
+    grid, normals = d.samples[0], d.normals[0]
+    outer, _ = occ.bspline_surface(grid)
+    inner, _ = occ.bspline_surface(grid - thickness * normals)
+    return occ.slab(outer, inner)
+
+
+def test_sewn_slab_is_a_valid_solid_between_its_faces():
+    """Two faces and the ruled strips between their edges sew into one valid, outward solid."""
+    d = cylinder_developed(n_arc=1, n_len=1, arc=np.pi / 6, length=1000.0)
+    solid = _slab(d, 5.0)
+    assert occ.is_valid(solid)
     radii = np.hypot(*occ.shape_points(solid)[:, 1:].T)
     assert radii.max() < 4000.0 + 1e-3 and radii.min() > 4000.0 - 5.0 - 1e-3
+    shell = np.pi / 12 * (4000.0 ** 2 - 3995.0 ** 2) * 1000.0
+    np.testing.assert_allclose(occ.volume(solid), shell, rtol=1e-4)
 
 
 def test_brep_round_trip_keeps_volume():
-    grid = cylinder_developed(n_arc=1, n_len=1).samples[0]
-    surface, _ = occ.bspline_surface(grid)
-    solid = occ.thicken(occ.face_from_surface(surface), -3.0)
+    solid = _slab(cylinder_developed(n_arc=1, n_len=1), 3.0)
     again = occ.from_brep(occ.to_brep(solid))
     assert occ.is_valid(again)
     np.testing.assert_allclose(occ.volume(again), occ.volume(solid), rtol=1e-12)

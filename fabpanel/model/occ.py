@@ -2,15 +2,15 @@
 
 Functions take and return numpy arrays, OCCT shapes or BREP bytes; every kernel call is checked
 (``IsDone``, ``BRepCheck_Analyzer``) and a failure raises :class:`~fabpanel.errors.KernelError`
-naming the part ("thickening of P012-TOP failed").
+naming the part ("sheet solid of P012-TOP is invalid").
 
 Kernel behaviour relied on here is pinned in ``tests/test_kernel_quirks.py``:
 
 - ``GeomAPI_PointsToBSplineSurface.Interpolate`` with ``Approx_IsoParametric`` builds a degree-3
   tensor-product interpolant whose boundary iso-curves depend on the boundary row only, so two
   panels sharing a side's samples get the same edge curve (to rounding), whatever their interior.
-- ``BRepOffsetAPI_MakeThickSolid.MakeThickSolidBySimple`` offsets along the face normal, which for
-  a surface fitted to ``grid[i, j]`` is ``dS/di x dS/dj``.
+- Sewing two faces over the same parameter square with the ``BRepFill.Face_s`` ruled strips
+  between their boundary iso-curves gives a valid closed solid (:func:`slab`).
 """
 
 from __future__ import annotations
@@ -33,11 +33,10 @@ from OCP.BRepCheck import BRepCheck_Analyzer
 from OCP.BRepFill import BRepFill
 from OCP.BRepGProp import BRepGProp
 from OCP.BRepLib import BRepLib
-from OCP.BRepOffsetAPI import BRepOffsetAPI_MakeThickSolid
 from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
 from OCP.collections import Array2_gp_Pnt as TColgp_Array2OfPnt
 from OCP.collections import HArray1_gp_Pnt, HArray1_gp_Pnt2d
-from OCP.Geom import Geom_BSplineSurface, Geom_Circle, Geom_OffsetSurface, Geom_Plane, Geom_Surface
+from OCP.Geom import Geom_BSplineSurface, Geom_Circle, Geom_Plane, Geom_Surface
 from OCP.Geom2dAPI import Geom2dAPI_Interpolate
 from OCP.GeomAPI import (
     GeomAPI_Interpolate,
@@ -93,33 +92,6 @@ def bspline_surface(grid: np.ndarray, name: str = "surface") -> tuple[Geom_BSpli
     # the interpolation parameters are uniform on the unit square (pinned in the kernel quirk
     # tests), so the error at the samples is a direct evaluation, not a projection
     return surface, float(np.linalg.norm(sample_surface(surface, nu, nv) - grid, axis=2).max())
-
-
-def fit_error(surface: Geom_Surface, points: np.ndarray) -> float:
-    """Largest distance of ``points (n, 3)`` to ``surface``, mm (orthogonal projection)."""
-    worst = 0.0
-    projector = GeomAPI_ProjectPointOnSurf()
-    for p in np.asarray(points, dtype=float):
-        projector.Init(gp_Pnt(*p), surface)
-        if projector.NbPoints() == 0:
-            # no orthogonal foot (a point on the boundary may miss it): fall back to the grid
-            # distance of the nearest evaluated point, an upper bound
-            worst = max(worst, _nearest_sample_distance(surface, p))
-            continue
-        worst = max(worst, projector.LowerDistance())
-    return float(worst)
-
-
-def _nearest_sample_distance(surface: Geom_Surface, point: np.ndarray) -> float:
-    grid = sample_surface(surface, 33, 33)
-    return float(np.linalg.norm(grid.reshape(-1, 3) - point, axis=1).min())
-
-
-def offset_surface(surface: Geom_Surface, offset: float) -> Geom_Surface:
-    """The surface moved by ``offset`` mm along its normal (the surface itself for 0)."""
-    if offset == 0.0:
-        return surface
-    return Geom_OffsetSurface(surface, float(offset))
 
 
 def sample_surface(surface: Geom_Surface, a: int, b: int, offset: float = 0.0) -> np.ndarray:
@@ -209,43 +181,16 @@ def face_from_surface(surface: Geom_Surface, name: str = "face") -> TopoDS_Shape
     return maker.Face()
 
 
-def face_area(face: TopoDS_Shape) -> float:
-    """Area of a face or shell, mm2."""
-    props = GProp_GProps()
-    BRepGProp.SurfaceProperties_s(face, props)
-    return float(props.Mass())
-
-
 # --------------------------------------------------------------------------------------------
 # solids
 # --------------------------------------------------------------------------------------------
-def thicken(face: TopoDS_Shape, thickness: float, name: str = "part") -> TopoDS_Shape:
-    """A solid from a face moved by ``thickness`` mm along the face normal (negative: against it).
-
-    Raises :class:`KernelError` when OCCT fails or the solid is not valid.
-    """
-    maker = BRepOffsetAPI_MakeThickSolid()
-    try:
-        maker.MakeThickSolidBySimple(face, float(thickness))
-        maker.Build()
-    except Exception as err:
-        raise KernelError(f"thickening of {name} failed: {err}") from err
-    if not maker.IsDone():
-        raise KernelError(f"thickening of {name} failed")
-    solid = _single_solid(maker.Shape(), f"thickening of {name}")
-    check_valid(solid, f"thickening of {name}")
-    if volume(solid) <= 0:
-        raise KernelError(f"thickening of {name} gave a solid of non-positive volume")
-    return solid
-
-
 def slab(outer: Geom_BSplineSurface, inner: Geom_BSplineSurface, name: str = "sheet",
          holes: Iterable[tuple[np.ndarray, np.ndarray]] = ()) -> TopoDS_Shape:
     """A closed sheet solid between two surfaces over the same parameter square: the two faces
     and four ruled side faces between their boundary iso-curves, sewn and made a solid.
 
-    More robust than ``BRepOffsetAPI_MakeThickSolid`` on tightly curved panels (it gave an
-    invalid side face on a 330 mm radius cone panel), and the side faces are exactly the ruled
+    More robust than thickening a face (``BRepOffsetAPI_MakeThickSolid`` gave an invalid side
+    face on a 330 mm radius cone panel), and the side faces are exactly the ruled
     strips between the two faces' edges, planar where both edges lie in one rib plane.
 
     holes : per hole, its boundary on the outer and on the inner face as closed loops of

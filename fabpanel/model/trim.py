@@ -52,7 +52,7 @@ class TrimmedFace:
     surface : Geom_BSplineSurface over the unit square; side convention as
         :class:`fabpanel.data.DevelopedPanels` (side 0 at v = 0, side 1 at u = 1 ...).
     orient : +1 when ``dS/du x dS/dv`` points outward (along the developed normals).
-    fit_error : mm, refit against the trimmed source surface (cell centres).
+    fit_error : mm, the developed samples against the new surface, measured across it.
     slide : (4,) float, mm, how far each side's edge moved to reach its plane.
     untrimmed : (4,) bool, sides asked to be trimmed that were left at the developed edge
         (the plane does not meet the face near it, or only after moving it by more than the
