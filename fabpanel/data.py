@@ -333,6 +333,8 @@ class FlatPart:
         largest relative edge-length change of the flattening (0 for planar parts).
     edge_lengths_flat, edge_lengths_3d : (4,) float
         sheets: length of each side in the flat outline and on the 3D surface, mm.
+    forming : str
+        sheets: how the shop forms it, as etched (``OUT CONVEX R4000``, ``OUT FLAT``).
     """
 
     id: str
@@ -349,6 +351,7 @@ class FlatPart:
     max_strain: float = 0.0
     edge_lengths_flat: np.ndarray | None = None
     edge_lengths_3d: np.ndarray | None = None
+    forming: str = ""
     files: tuple[str, ...] = ()
 
     @property
@@ -363,6 +366,8 @@ class FlatPart:
         record = {"id": self.id, "kind": self.kind, "panel": self.panel_id,
                   "thickness_mm": self.thickness, "area_mm2": round(self.area, 1),
                   "max_strain": float(self.max_strain), "files": list(self.files)}
+        if self.forming:
+            record["forming"] = self.forming
         if self.edge_lengths_flat is not None:
             record["edge_lengths_flat_mm"] = _round(self.edge_lengths_flat, 3)
             record["edge_lengths_3d_mm"] = _round(self.edge_lengths_3d, 3)

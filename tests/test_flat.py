@@ -123,7 +123,8 @@ def test_cut_sheets_and_ribs(tmp_path):
     direction = top.bend_lines[:, 1] - top.bend_lines[:, 0]
     np.testing.assert_allclose(np.abs(direction[:, 0]), 0, atol=1e-6)
     assert len(cone.bend_lines) > 0
-    assert [label[0] for label in top.labels] == ["P001-TOP", "P001", "OUT"]
+    assert [label[0] for label in top.labels] == ["P001-TOP", "P001", "OUT CONVEX R4000"]
+    assert top.forming == "OUT CONVEX R4000" and cone.forming == "OUT CONVEX R866-1501"
     assert not flat.issues
 
     files = write_parts(flat, tmp_path)
@@ -132,6 +133,79 @@ def test_cut_sheets_and_ribs(tmp_path):
         path = tmp_path / files[part.id]
         assert audit_dxf(path) == []
         np.testing.assert_allclose(part_area_from_dxf(path), part.area, rtol=1e-4)
+
+
+def skewed_cylinder_grid(a: int = 33, b: int = 33) -> np.ndarray:
+    """A vault patch sampled along helices: neither family of grid lines is a ruling."""
+    i = np.linspace(0.0, 1.0, a)[:, None]
+    j = np.linspace(0.0, 1.0, b)[None, :]
+    t = np.pi / 2 + ARC * (i - 0.5) + 0.1 * (j - 0.5)
+    x = LENGTH * (j + 0.3 * i)
+    return np.stack(np.broadcast_arrays(x, RADIUS * np.cos(t), RADIUS * np.sin(t)), axis=-1)
+
+
+def bend_lines_in_3d(grid):
+    """Unroll a grid, lay its bend lines, map their ends and midpoints back onto the surface."""
+    from scipy.interpolate import LinearNDInterpolator
+
+    from fabpanel.flat.bending import bending_of
+    from fabpanel.flat.unroll import grid_outline
+
+    uv, _ = flatten_grid(grid)
+    bending = bending_of(grid, uv, grid_outline(uv))
+    to_3d = LinearNDInterpolator(uv.reshape(-1, 2), grid.reshape(-1, 3))
+    lines = bending.lines
+    # pull the ends 1 mm inside so the piecewise-linear map is defined there
+    direction = (lines[:, 1] - lines[:, 0]) / np.linalg.norm(lines[:, 1] - lines[:, 0],
+                                                                 axis=1)[:, None]
+    ends = np.stack([lines[:, 0] + direction, lines[:, 1] - direction], axis=1)
+    middle = ends.mean(axis=1)
+    return bending, to_3d(ends.reshape(-1, 2)).reshape(-1, 2, 3), to_3d(middle)
+
+
+@pytest.mark.parametrize("grid", [cylinder_grid(), skewed_cylinder_grid()],
+                         ids=["grid-lines-are-rulings", "helical-grid"])
+def test_bend_lines_are_the_cylinder_rulings(grid):
+    bending, ends, middle = bend_lines_in_3d(grid)
+    assert bending.form == "single" and len(bending.lines) == 5 and bending.convex
+    np.testing.assert_allclose(bending.radii, RADIUS, rtol=2e-3)
+    # a cylinder's rulings run along its axis (x): the line's ends differ in x only
+    np.testing.assert_allclose(ends[:, 0, 1:], ends[:, 1, 1:], atol=0.5)
+    # and the line is straight on the surface: its middle lies midway between its ends
+    np.testing.assert_allclose(middle, ends.mean(axis=1), atol=0.5)
+    # each bend line spans the sheet: from one side of the outline to the other
+    assert np.all(np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1) > 300)
+
+
+def test_bend_lines_of_a_cone_meet_at_its_apex():
+    bending, ends, _ = bend_lines_in_3d(cone_grid())
+    assert bending.form == "single" and len(bending.lines) == 5
+    # the apex is the origin: the 3D line through the ends passes through it
+    direction = ends[:, 1] - ends[:, 0]
+    miss = np.linalg.norm(np.cross(ends[:, 0], direction), axis=1) / np.linalg.norm(direction,
+                                                                                    axis=1)
+    assert miss.max() < 1.0
+    rho = np.tan(CONE_HALF_ANGLE) * np.array(CONE_S)     # radius of curvature across a ruling
+    np.testing.assert_allclose([bending.radii[:, 0].min(), bending.radii[:, 1].max()], rho,
+                               rtol=2e-3)
+
+
+def test_roll_direction_follows_the_face_seen():
+    from fabpanel.flat.bending import bending_of
+    from fabpanel.flat.unroll import grid_outline
+
+    outside, inside = cylinder_grid(), cylinder_grid()[:, ::-1]   # d_i x d_j out / in
+    forms = []
+    for grid in (outside, inside):
+        uv, _ = flatten_grid(grid)
+        forms.append(bending_of(grid, uv, grid_outline(uv)).instruction())
+    assert forms == ["OUT CONVEX R4000", "OUT CONCAVE R4000"]
+    flat = np.stack(np.broadcast_arrays(np.linspace(0, 900, 9)[:, None],
+                                        np.linspace(0, 600, 7)[None, :], 0.0), axis=-1)
+    uv, _ = flatten_grid(flat)
+    assert bending_of(flat, uv, grid_outline(uv)).instruction() == "OUT FLAT"
+    uv, _ = flatten_grid(sphere_grid())
+    assert bending_of(sphere_grid(), uv, grid_outline(uv)).form == "double"
 
 
 def test_dxf_conventions(tmp_path):

@@ -7,17 +7,18 @@ spyrrow (sparrow: J. Gardeyn, T. Wauters, "An open-source heuristic for 2D irreg
 2. Each outline is validated, grown by half the part spacing plus a small safety gap (shapely
    mitre buffer) and simplified (Douglas-Peucker, the grow covers the simplification tolerance) to
    keep spyrrow fast. The cut outline stays the original.
-3. The grown shapes are packed into a strip as high as the usable plate width (plate width minus
-   the margin on both sides, plus the grow on both sides: a part may touch the usable area's edge
-   with its true outline). The strip is cut into slots one usable plate length long.
-4. Every slot except the last becomes a plate with the parts lying wholly inside it; parts that
-   cross a slot end and the parts of the last slot are repacked in a new strip (step 3) until the
-   rest fits one plate. When the first strip has no crossings all its slots are kept at once.
+3. Plates are filled one at a time. The strip is as high as the usable plate width (plate width
+   minus the margin on both sides, plus the grow on both sides: a part may touch the usable area's
+   edge with its true outline). The largest parts left, about 1.5 plates of them, are packed into
+   it and those lying wholly within its first plate length start the plate; then the smallest
+   parts left are added while all of them still pack into one plate length (a binary search over
+   how many). What does not fit waits for the next plate, so no part ever crosses a plate end.
 
 A part whose grown shape fits no plate in any allowed rotation becomes a ``part-too-large`` issue.
-Time budget: ``[cutting] nest_time`` per group; spyrrow takes whole seconds, so the first pack gets
-about 70 % and each repack half of what is left (0 s means spyrrow's constructive solution only).
-Results are deterministic for a given seed on one machine (spyrrow's own seed is ``seed + round``).
+Time budget: ``[cutting] nest_time`` per group, spread over the plates it is expected to need
+(spyrrow takes whole seconds); each plate spends its share on one more attempt to add a part with
+spyrrow's improvement phase. 0 s means constructive packs only, which are reproducible bit for
+bit (spyrrow's own seed is ``seed + plate number``).
 """
 
 from __future__ import annotations
@@ -47,6 +48,12 @@ SIMPLIFY_TOLERANCE = 0.5
 SAFETY_GAP = 0.05
 #: geometric tolerance of the nest checks, mm
 CHECK_TOLERANCE = 0.01
+#: a plate is started from the largest parts left, about this many plates of them
+CANDIDATE_PLATES = 1.5
+#: constructive packs per plate when adding small parts to it (binary search)
+FILL_PROBES = 6
+#: expected share of a plate the grown shapes cover (splits the time budget over the plates)
+FILL_DENSITY = 0.85
 
 Progress = Callable[[float, str], None]
 
@@ -144,47 +151,109 @@ def _pack_strip(items: list[_Item], height: float, seconds: int, seed: int
 
 
 def _round_seconds(seconds: float) -> int:
-    return max(int(round(seconds)), 0)
+    return max(int(seconds), 0)
 
 
-def _nest_group(items: list[_Item], job: Job, grow: float, deadline_s: float, seed: int,
+@dataclass
+class _Packing:
+    """One plate being filled: its items and their transforms (part frame -> usable area)."""
+
+    items: list[_Item]
+    transforms: list[np.ndarray]
+
+
+def _spans(items: list[_Item], transforms: list[np.ndarray]) -> np.ndarray:
+    """(n, 2) float: x range of each placed item's shape."""
+    return np.array([[(x := transform_points(t, it.shape)[:, 0]).min(), x.max()]
+                     for it, t in zip(items, transforms)])
+
+
+def _pack_on_plate(items: list[_Item], length: float, height: float, seconds: int,
+                   seed: int) -> _Packing | None:
+    """Pack items into one plate (a strip ``length`` long) or return None when they need more."""
+    transforms, _ = _pack_strip(items, height, seconds, seed)
+    spans = _spans(items, transforms)
+    if spans[:, 1].max() - spans[:, 0].min() > length + 1e-6:
+        return None
+    shift = np.eye(3)
+    shift[0, 2] = -spans[:, 0].min()
+    return _Packing(list(items), [shift @ t for t in transforms])
+
+
+def _first_window(items: list[_Item], length: float, height: float, seed: int) -> _Packing:
+    """Pack ``items`` in a strip and keep those lying wholly in its first plate length."""
+    transforms, _ = _pack_strip(items, height, 0, seed)
+    spans = _spans(items, transforms)
+    x0 = spans[:, 0].min()
+    inside = spans[:, 1] <= x0 + length + 1e-6
+    if not inside.any():      # cannot happen for parts that fit a plate alone, but never loop
+        inside[int(np.argmin(spans[:, 0]))] = True
+    shift = np.eye(3)
+    shift[0, 2] = -x0
+    keep = np.flatnonzero(inside)
+    return _Packing([items[i] for i in keep], [shift @ transforms[i] for i in keep])
+
+
+def _fill(plate: _Packing, extras: list[_Item], length: float, height: float, seconds: int,
+          seed: int) -> _Packing:
+    """Add as many of ``extras`` (smallest first) to a plate as still pack onto it.
+
+    Binary search on how many (at most ``FILL_PROBES`` constructive packs, bounded by the free
+    area); with a time budget, one more attempt with spyrrow's improvement phase.
+    """
+    areas = np.array([abs(polygon_area(it.shape)) for it in extras])
+    free = length * height - sum(abs(polygon_area(it.shape)) for it in plate.items)
+    low, high = 0, int(np.searchsorted(np.cumsum(areas), free, side="right"))
+    best = plate
+    for _ in range(FILL_PROBES):
+        if low >= high:
+            break
+        middle = (low + high + 1) // 2
+        packed = _pack_on_plate(plate.items + extras[:middle], length, height, 0, seed)
+        if packed is None:
+            high = middle - 1
+        else:
+            low, best = middle, packed
+    if seconds > 0 and low < len(extras) and areas[:low + 1].sum() <= free:
+        packed = _pack_on_plate(plate.items + extras[:low + 1], length, height, seconds, seed)
+        best = packed or best
+    return best
+
+
+def _nest_group(items: list[_Item], job: Job, grow: float, budget_s: float, seed: int,
                 on_round: Callable[[int], None]) -> list[list[tuple[_Item, np.ndarray]]]:
-    """Plates of one group: per plate a list of (item, transform part frame -> plate)."""
+    """Plates of one group: per plate a list of (item, transform part frame -> plate).
+
+    Plate by plate: the largest parts left (about ``CANDIDATE_PLATES`` plates of them) are
+    packed into a strip and those lying wholly in its first plate length are kept; then the
+    smallest parts left are added while the plate still packs (:func:`_fill`). Parts that do not
+    fit wait for the next plate, so no part ever crosses a plate end.
+    """
     cutting = job.cutting
-    slot = cutting.plate_length - 2 * cutting.plate_margin + 2 * grow
+    length = cutting.plate_length - 2 * cutting.plate_margin + 2 * grow
     height = cutting.plate_width - 2 * cutting.plate_margin + 2 * grow
-    offset = np.array([cutting.plate_margin - grow, cutting.plate_margin - grow])
+    offset = np.eye(3)
+    offset[:2, 2] = cutting.plate_margin - grow
+    rest = sorted(items, key=lambda it: -abs(polygon_area(it.shape)))
+    estimate = sum(abs(polygon_area(it.shape)) for it in rest) / (FILL_DENSITY * length * height)
+    seconds = _round_seconds(budget_s / max(math.ceil(estimate), 1))
     plates: list[list[tuple[_Item, np.ndarray]]] = []
-    ordered = sorted(items, key=lambda it: -abs(polygon_area(it.shape)))
-    transforms, width = _pack_strip(ordered, height, _round_seconds(deadline_s), seed)
-    on_round(0)
-    spans = np.array([[transform_points(t, it.shape)[:, 0].min(),
-                       transform_points(t, it.shape)[:, 0].max()]
-                      for it, t in zip(ordered, transforms)])
-    # Cut the strip into plates with windows one plate long: each window starts at the left end
-    # of the leftmost part not yet taken and takes every untaken part lying wholly inside it.
-    # Parts never overlap in the strip, so they cannot overlap on a plate; every part fits a
-    # window on its own because it was only offered the rotations that fit a plate.
-    taken = np.zeros(len(ordered), dtype=bool)
-    while not taken.all():
-        x0 = spans[~taken, 0].min()
-        inside = ~taken & (spans[:, 0] >= x0 - 1e-6) & (spans[:, 1] <= x0 + slot + 1e-6)
-        if not inside.any():                  # cannot happen for parts that fit, but never loop
-            inside[np.flatnonzero(~taken)[0]] = True
-        shift = np.eye(3)
-        shift[:2, 2] = offset - [x0, 0.0]
-        plates.append([(ordered[i], shift @ transforms[i]) for i in np.flatnonzero(inside)])
-        taken |= inside
-    log.debug("nest: strip %.0f mm cut into %d plates", width, len(plates))
+    while rest:
+        areas = np.cumsum([abs(polygon_area(it.shape)) for it in rest])
+        count = max(int(np.searchsorted(areas, CANDIDATE_PLATES * length * height)), 1)
+        whole = _pack_on_plate(rest, length, height, 0, seed) if count >= len(rest) else None
+        if whole is None:
+            window = _first_window(rest[:count], length, height, seed + len(plates))
+            chosen = {id(it) for it in window.items}
+            extras = sorted((it for it in rest if id(it) not in chosen),
+                            key=lambda it: abs(polygon_area(it.shape)))
+            whole = _fill(window, extras, length, height, seconds, seed + len(plates))
+        plates.append([(it, offset @ t) for it, t in zip(whole.items, whole.transforms)])
+        chosen = {id(it) for it in whole.items}
+        rest = [it for it in rest if id(it) not in chosen]
+        on_round(len(rest))
+    log.debug("nest: %d parts on %d plates", len(items), len(plates))
     return plates
-
-
-def _alone(item: _Item) -> np.ndarray:
-    """Transform putting an item's grown shape at the strip origin in its first rotation."""
-    t = np.eye(3)
-    t[:2, :2] = rotation_matrix(item.rotations[0])
-    t[:2, 2] = -(item.shape @ t[:2, :2].T).min(axis=0)
-    return t
 
 
 def cut_length(part: FlatPart) -> float:

@@ -2,9 +2,9 @@
 
 Sheets are unrolled with :func:`fabpanel.geom.flatten.flatten_grid`; the flat outline is the
 boundary of the flat grid in side order 0, 1, 2, 3 (counter-clockwise, seen from the outer side).
-Single-curved sheets get a few rulings as bend lines (the straight family of grid lines, where the
-other family is curved); every part gets its id, its panel id and, for sheets, an ``OUT`` marker as
-etched labels.
+Single-curved sheets get their rulings as bend lines and a forming instruction (which way the
+outer face rolls, the radii: :mod:`fabpanel.flat.bending`); every part gets its id and its panel
+id as etched labels, sheets also the forming instruction (``OUT CONVEX R4000``).
 """
 
 from __future__ import annotations
@@ -25,14 +25,11 @@ from ..errors import GeometryError, Issue
 from ..geom.flatten import flatten_grid
 from ..geom.polygon import polygon_area
 from ..job import Job
+from .bending import bending_of
 from .strokefont import text_width
 
 log = logging.getLogger(__name__)
 
-#: a grid line counts as straight (a ruling) when no sample is farther than this from its chord, mm
-STRAIGHT_TOLERANCE = 0.1
-#: number of rulings drawn as bend lines on a single-curved sheet
-BEND_LINES = 5
 #: label cap height limits, mm (15-30 mm reads well on a shop floor)
 LABEL_HEIGHT = (4.0, 30.0)
 
@@ -50,44 +47,6 @@ def polyline_lengths(polylines: list[np.ndarray]) -> np.ndarray:
 def grid_outline(uv: np.ndarray) -> np.ndarray:
     """(2 (a + b) - 4, 2) float: the flat grid's boundary, sides 0..3, corners not repeated."""
     return np.concatenate([side[:-1] for side in grid_sides(uv)])
-
-
-def line_deviation(lines: np.ndarray) -> np.ndarray:
-    """(m,) float: largest distance of each polyline's points from the line through its ends, mm.
-
-    lines : (m, k, 3) float
-    """
-    start, end = lines[:, :1], lines[:, -1:]
-    axis = end - start
-    axis = axis / np.maximum(np.linalg.norm(axis, axis=2, keepdims=True), 1e-300)
-    rel = lines - start
-    along = np.einsum("mkd,mod->mk", rel, axis)
-    return np.linalg.norm(rel - along[..., None] * axis, axis=2).max(axis=1)
-
-
-def ruling_direction(grid: np.ndarray, tol: float = STRAIGHT_TOLERANCE) -> int | None:
-    """Which family of grid lines are rulings of a single-curved grid.
-
-    Returns 1 when the lines ``grid[i, :]`` (along j) are straight and the lines ``grid[:, j]``
-    are not, 0 for the opposite case, None when neither or both are straight (planar, doubly
-    curved or twisted sheets get no bend lines).
-    """
-    straight_j = line_deviation(grid).max() <= tol
-    straight_i = line_deviation(np.swapaxes(grid, 0, 1)).max() <= tol
-    if straight_j == straight_i:
-        return None
-    return 1 if straight_j else 0
-
-
-def bend_lines_of(uv: np.ndarray, direction: int | None, count: int = BEND_LINES) -> np.ndarray:
-    """(c, 2, 2) float: flat rulings at evenly spaced interior grid lines of one family."""
-    if direction is None:
-        return np.zeros((0, 2, 2))
-    lines = uv if direction == 1 else np.swapaxes(uv, 0, 1)
-    n = len(lines)
-    index = np.unique(np.round(np.linspace(0, n - 1, count + 2)[1:-1]).astype(int))
-    index = index[(index > 0) & (index < n - 1)]
-    return np.stack([lines[index, 0], lines[index, -1]], axis=1)
 
 
 def place_labels(outline: np.ndarray, lines: list[str], angle: float | None = None
@@ -146,13 +105,14 @@ def unroll_sheet(part: Part) -> FlatPart:
     outline = grid_outline(uv)
     lengths_flat = polyline_lengths(grid_sides(uv))
     lengths_3d = polyline_lengths(grid_sides(grid))
-    bends = bend_lines_of(uv, ruling_direction(grid))
-    labels = place_labels(outline, [part.id, part.panel_id, "OUT"], angle=0.0)
+    bending = bending_of(grid, uv, outline)
+    labels = place_labels(outline, [part.id, part.panel_id, bending.instruction()], angle=0.0)
     holes = tuple(dataclasses.replace(h, centre=tuple(grid_point(uv, *h.centre)))
                   for h in part.holes)
     return FlatPart(id=part.id, kind=part.kind, panel_id=part.panel_id, material=part.material,
                     thickness=part.thickness, outline=outline, round_holes=holes,
-                    bend_lines=bends, labels=labels, max_strain=strain,
+                    bend_lines=bending.lines, labels=labels, max_strain=strain,
+                    forming=bending.instruction(),
                     edge_lengths_flat=lengths_flat, edge_lengths_3d=lengths_3d)
 
 
@@ -219,12 +179,10 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
 
 
 __all__ = [
-    "bend_lines_of",
     "cut",
     "flat_plate",
     "grid_outline",
     "grid_sides",
     "place_labels",
-    "ruling_direction",
     "unroll_sheet",
 ]
