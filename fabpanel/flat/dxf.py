@@ -1,8 +1,9 @@
 """The one ezdxf adapter: flat parts and plates as plasma-ready DXF.
 
 Conventions (what SheetCam, ProNest and similar CAM programs expect): DXF R2010, millimetres
-(``$INSUNITS = 4``, ``$MEASUREMENT = 1``), closed LWPOLYLINE contours, CIRCLE for round holes,
-no SPLINE/ELLIPSE/TEXT. Layers by operation:
+(``$INSUNITS = 4``, ``$MEASUREMENT = 1``), closed LWPOLYLINE contours of lines and circular arcs
+(bulges fitted within 0.02 mm of the part's polyline: :mod:`fabpanel.geom.arcfit`), CIRCLE for
+round holes, no SPLINE/ELLIPSE/TEXT. Layers by operation:
 
 ``CUT-OUTER``  outer contours (cut last)
 ``CUT-INNER``  holes (cut first)
@@ -18,8 +19,10 @@ from pathlib import Path
 
 import ezdxf
 import numpy as np
+from ezdxf.path import make_path
 
 from ..data import FlatPart, FlatParts
+from ..geom.arcfit import fit_arcs
 from ..geom.polygon import polygon_area
 from .strokefont import text_strokes
 
@@ -69,13 +72,18 @@ def add_part(msp, part: FlatPart, transform: np.ndarray | None = None,
         for line in etch_polylines(part):
             msp.add_lwpolyline(_apply(transform, line).tolist(), dxfattribs={"layer": "ETCH"})
     for hole in part.holes:
-        msp.add_lwpolyline(_apply(transform, hole).tolist(), close=True,
-                           dxfattribs={"layer": "CUT-INNER"})
+        add_contour(msp, hole, "CUT-INNER", transform)
     for hole in part.round_holes:
         centre = _apply(transform, np.array([hole.centre]))[0]
         msp.add_circle(centre.tolist(), hole.diameter / 2, dxfattribs={"layer": "CUT-INNER"})
-    msp.add_lwpolyline(_apply(transform, part.outline).tolist(), close=True,
-                       dxfattribs={"layer": "CUT-OUTER"})
+    add_contour(msp, part.outline, "CUT-OUTER", transform)
+
+
+def add_contour(msp, points: np.ndarray, layer: str, transform: np.ndarray | None = None) -> None:
+    """A closed contour as one LWPOLYLINE of lines and arcs (bulges survive rigid motions)."""
+    vertices, bulges = fit_arcs(points)
+    rows = np.column_stack([_apply(transform, vertices), bulges])
+    msp.add_lwpolyline(rows.tolist(), format="xyb", close=True, dxfattribs={"layer": layer})
 
 
 def save(doc, path: str | Path) -> Path:
@@ -126,8 +134,12 @@ def audit_dxf(path: str | Path) -> list[str]:
 
 
 def _polyline_area(entities: Iterable) -> float:
-    return sum(abs(polygon_area(np.array([(x, y) for x, y, *_ in e.get_points()])))
-               for e in entities)
+    """Enclosed area of closed LWPOLYLINEs, arcs included (flattened to 1 micron)."""
+    total = 0.0
+    for entity in entities:
+        points = np.array([(v.x, v.y) for v in make_path(entity).flattening(0.001)])
+        total += abs(polygon_area(points))
+    return total
 
 
 def part_area_from_dxf(path: str | Path) -> float:

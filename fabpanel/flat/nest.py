@@ -31,6 +31,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+import rectpack
 import shapely
 import spyrrow
 from shapely.geometry import Polygon, box
@@ -48,8 +49,6 @@ SIMPLIFY_TOLERANCE = 0.5
 SAFETY_GAP = 0.05
 #: geometric tolerance of the nest checks, mm
 CHECK_TOLERANCE = 0.01
-#: a plate is started from the largest parts left, about this many plates of them
-CANDIDATE_PLATES = 1.5
 #: constructive packs per plate when adding small parts to it (binary search)
 FILL_PROBES = 6
 #: expected share of a plate the grown shapes cover (splits the time budget over the plates)
@@ -180,29 +179,52 @@ def _pack_on_plate(items: list[_Item], length: float, height: float, seconds: in
     return _Packing(list(items), [shift @ t for t in transforms])
 
 
-def _first_window(items: list[_Item], length: float, height: float, seed: int) -> _Packing:
-    """Pack ``items`` in a strip and keep those lying wholly in its first plate length."""
-    transforms, _ = _pack_strip(items, height, 0, seed)
-    spans = _spans(items, transforms)
-    x0 = spans[:, 0].min()
-    inside = spans[:, 1] <= x0 + length + 1e-6
-    if not inside.any():      # cannot happen for parts that fit a plate alone, but never loop
-        inside[int(np.argmin(spans[:, 0]))] = True
-    shift = np.eye(3)
-    shift[0, 2] = -x0
-    keep = np.flatnonzero(inside)
-    return _Packing([items[i] for i in keep], [shift @ transforms[i] for i in keep])
+def _box_plates(items: list[_Item], length: float, height: float, rotate: bool
+                ) -> list[_Packing]:
+    """A first, always feasible assignment: the items' bounding boxes packed onto plates by
+    rectpack (MaxRects, best-fit bins, quarter turns when ``rotate``), boxes rounded up to
+    0.1 mm and the plate down, so every shape lies in its box on its plate."""
+    packer = rectpack.newPacker(mode=rectpack.PackingMode.Offline,
+                                bin_algo=rectpack.PackingBin.BFF,
+                                pack_algo=rectpack.MaxRectsBssf, rotation=rotate)
+    boxes = [np.ceil(np.ptp(it.shape, axis=0) * 10).astype(int) for it in items]
+    for index, box_size in enumerate(boxes):
+        packer.add_rect(int(box_size[0]), int(box_size[1]), rid=index)
+    packer.add_bin(int(length * 10), int(height * 10), count=float("inf"))
+    packer.pack()
+    plates = []
+    for plate_bin in packer:
+        members, transforms = [], []
+        for rect in plate_bin:
+            item = items[rect.rid]
+            turned = (rect.width, rect.height) != tuple(boxes[rect.rid])
+            rotation = next(r for r in item.rotations if (r % 180 == 90) == turned)
+            t = np.eye(3)
+            t[:2, :2] = rotation_matrix(rotation)
+            t[:2, 2] = np.array([rect.x, rect.y]) / 10 - (item.shape @ t[:2, :2].T).min(axis=0)
+            members.append(item)
+            transforms.append(t)
+        plates.append(_Packing(members, transforms))
+    if sum(len(p.items) for p in plates) != len(items):
+        raise SolverError(f"rectpack placed {sum(len(p.items) for p in plates)} of "
+                          f"{len(items)} parts")
+    return plates
 
 
-def _fill(plate: _Packing, extras: list[_Item], length: float, height: float, seconds: int,
+def _fill(plate: _Packing, waiting: list[_Item], length: float, height: float, seconds: int,
           seed: int) -> _Packing:
-    """Add as many of ``extras`` (smallest first) to a plate as still pack onto it.
+    """Add parts from ``waiting`` to a plate while everything still packs onto it.
 
-    Binary search on how many (at most ``FILL_PROBES`` constructive packs, bounded by the free
-    area); with a time budget, one more attempt with spyrrow's improvement phase.
+    The smallest waiting parts, by a binary search on how many (at most ``FILL_PROBES``
+    constructive packs, bounded by the free area); with a time budget, one more part is tried
+    with spyrrow's improvement phase.
     """
-    areas = np.array([abs(polygon_area(it.shape)) for it in extras])
-    free = length * height - sum(abs(polygon_area(it.shape)) for it in plate.items)
+    def area(item: _Item) -> float:
+        return abs(polygon_area(item.shape))
+
+    free = length * height - sum(area(it) for it in plate.items)
+    extras = sorted(waiting, key=area)
+    areas = np.array([area(it) for it in extras])
     low, high = 0, int(np.searchsorted(np.cumsum(areas), free, side="right"))
     best = plate
     for _ in range(FILL_PROBES):
@@ -224,35 +246,40 @@ def _nest_group(items: list[_Item], job: Job, grow: float, budget_s: float, seed
                 on_round: Callable[[int], None]) -> list[list[tuple[_Item, np.ndarray]]]:
     """Plates of one group: per plate a list of (item, transform part frame -> plate).
 
-    Plate by plate: the largest parts left (about ``CANDIDATE_PLATES`` plates of them) are
-    packed into a strip and those lying wholly in its first plate length are kept; then the
-    smallest parts left are added while the plate still packs (:func:`_fill`). Parts that do not
-    fit wait for the next plate, so no part ever crosses a plate end.
+    The bounding-box assignment (:func:`_box_plates`) gives each plate its first parts. Plate by
+    plate, spyrrow packs them as irregular shapes (the box layout stays when spyrrow's
+    constructive pack does not fit them in one plate), then the smallest parts still waiting on
+    later plates are added while everything still packs onto this one (:func:`_fill`). Plates
+    whose parts have all moved disappear, so there are never more plates than boxes need.
     """
     cutting = job.cutting
     length = cutting.plate_length - 2 * cutting.plate_margin + 2 * grow
     height = cutting.plate_width - 2 * cutting.plate_margin + 2 * grow
     offset = np.eye(3)
     offset[:2, 2] = cutting.plate_margin - grow
-    rest = sorted(items, key=lambda it: -abs(polygon_area(it.shape)))
-    estimate = sum(abs(polygon_area(it.shape)) for it in rest) / (FILL_DENSITY * length * height)
+    # a part that fits one way only cannot be turned by rectpack: its turned box does not fit
+    quarter_turns = {r % 180 for r in cutting.rotations} == {0, 90}
+    boxes = _box_plates(items, length, height, rotate=quarter_turns)
+    estimate = sum(abs(polygon_area(it.shape)) for it in items) / (FILL_DENSITY * length * height)
     seconds = _round_seconds(budget_s / max(math.ceil(estimate), 1))
+    placed: set[int] = set()
     plates: list[list[tuple[_Item, np.ndarray]]] = []
-    while rest:
-        areas = np.cumsum([abs(polygon_area(it.shape)) for it in rest])
-        count = max(int(np.searchsorted(areas, CANDIDATE_PLATES * length * height)), 1)
-        whole = _pack_on_plate(rest, length, height, 0, seed) if count >= len(rest) else None
-        if whole is None:
-            window = _first_window(rest[:count], length, height, seed + len(plates))
-            chosen = {id(it) for it in window.items}
-            extras = sorted((it for it in rest if id(it) not in chosen),
-                            key=lambda it: abs(polygon_area(it.shape)))
-            whole = _fill(window, extras, length, height, seconds, seed + len(plates))
-        plates.append([(it, offset @ t) for it, t in zip(whole.items, whole.transforms)])
-        chosen = {id(it) for it in whole.items}
-        rest = [it for it in rest if id(it) not in chosen]
-        on_round(len(rest))
-    log.debug("nest: %d parts on %d plates", len(items), len(plates))
+    for index, box in enumerate(boxes):
+        keep = [k for k, it in enumerate(box.items) if id(it) not in placed]
+        if not keep:
+            continue
+        members = [box.items[k] for k in keep]
+        plate = (_pack_on_plate(members, length, height, 0, seed + index)
+                 or _Packing(members, [box.transforms[k] for k in keep]))
+        waiting = sorted((it for later in boxes[index + 1:] for it in later.items
+                          if id(it) not in placed), key=lambda it: abs(polygon_area(it.shape)))
+        if len(plate.items) == len(members) and waiting:
+            plate = _fill(plate, waiting, length, height, seconds, seed + index)
+        placed |= {id(it) for it in plate.items}
+        plates.append([(it, offset @ t) for it, t in zip(plate.items, plate.transforms)])
+        on_round(len(items) - len(placed))
+    log.debug("nest: %d parts on %d plates (bounding boxes: %d)", len(items), len(plates),
+              len(boxes))
     return plates
 
 
