@@ -48,7 +48,7 @@ def test_fit_holds_every_vertex(shape):
 
 
 def test_rounded_rectangle_is_four_lines_and_four_arcs():
-    vertices, bulges = fit_arcs(rounded_rectangle())
+    _, bulges = fit_arcs(rounded_rectangle())
     assert np.count_nonzero(bulges) == 4 and np.count_nonzero(bulges == 0) == 4
     # a quarter circle: bulge tan(90 deg / 4), counter-clockwise
     np.testing.assert_allclose(bulges[bulges != 0], np.tan(np.pi / 8), rtol=1e-9)

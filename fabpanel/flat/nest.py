@@ -7,18 +7,21 @@ spyrrow (sparrow: J. Gardeyn, T. Wauters, "An open-source heuristic for 2D irreg
 2. Each outline is validated, grown by half the part spacing plus a small safety gap (shapely
    mitre buffer) and simplified (Douglas-Peucker, the grow covers the simplification tolerance) to
    keep spyrrow fast. The cut outline stays the original.
-3. Plates are filled one at a time. The strip is as high as the usable plate width (plate width
-   minus the margin on both sides, plus the grow on both sides: a part may touch the usable area's
-   edge with its true outline). The largest parts left, about 1.5 plates of them, are packed into
-   it and those lying wholly within its first plate length start the plate; then the smallest
-   parts left are added while all of them still pack into one plate length (a binary search over
-   how many). What does not fit waits for the next plate, so no part ever crosses a plate end.
+3. A first assignment packs the grown shapes' bounding boxes onto plates (rectpack: MaxRects,
+   best-fit bins). It is always feasible, and it is the naive nest the benchmark compares with.
+4. Plate by plate, spyrrow packs the plate's parts as the irregular shapes they are, in a strip
+   as high as the usable plate width (plate width minus the margin on both sides, plus the grow
+   on both sides: a part may touch the usable area's edge with its true outline); it is kept when
+   it fits one usable plate length, else the box layout stays. Then the smallest parts still
+   waiting on later plates are moved onto this one while everything still packs (a binary search
+   over how many). Plates whose parts have all moved disappear, so the nest never needs more
+   plates than the boxes, and no part ever crosses a plate end.
 
 A part whose grown shape fits no plate in any allowed rotation becomes a ``part-too-large`` issue.
 Time budget: ``[cutting] nest_time`` per group, spread over the plates it is expected to need
 (spyrrow takes whole seconds); each plate spends its share on one more attempt to add a part with
 spyrrow's improvement phase. 0 s means constructive packs only, which are reproducible bit for
-bit (spyrrow's own seed is ``seed + plate number``).
+bit (spyrrow's own seed is ``seed`` plus the plate's index).
 """
 
 from __future__ import annotations
@@ -253,24 +256,22 @@ def _nest_group(items: list[_Item], job: Job, grow: float, budget_s: float, seed
     whose parts have all moved disappear, so there are never more plates than boxes need.
     """
     cutting = job.cutting
-    length = cutting.plate_length - 2 * cutting.plate_margin + 2 * grow
-    height = cutting.plate_width - 2 * cutting.plate_margin + 2 * grow
+    length, height = _usable(job)
     offset = np.eye(3)
     offset[:2, 2] = cutting.plate_margin - grow
     # a part that fits one way only cannot be turned by rectpack: its turned box does not fit
-    quarter_turns = {r % 180 for r in cutting.rotations} == {0, 90}
-    boxes = _box_plates(items, length, height, rotate=quarter_turns)
+    boxes = _box_plates(items, length, height, {r % 180 for r in cutting.rotations} == {0, 90})
     estimate = sum(abs(polygon_area(it.shape)) for it in items) / (FILL_DENSITY * length * height)
     seconds = _round_seconds(budget_s / max(math.ceil(estimate), 1))
     placed: set[int] = set()
     plates: list[list[tuple[_Item, np.ndarray]]] = []
-    for index, box in enumerate(boxes):
-        keep = [k for k, it in enumerate(box.items) if id(it) not in placed]
+    for index, assigned in enumerate(boxes):
+        keep = [k for k, it in enumerate(assigned.items) if id(it) not in placed]
         if not keep:
             continue
-        members = [box.items[k] for k in keep]
+        members = [assigned.items[k] for k in keep]
         plate = (_pack_on_plate(members, length, height, 0, seed + index)
-                 or _Packing(members, [box.transforms[k] for k in keep]))
+                 or _Packing(members, [assigned.transforms[k] for k in keep]))
         waiting = sorted((it for later in boxes[index + 1:] for it in later.items
                           if id(it) not in placed), key=lambda it: abs(polygon_area(it.shape)))
         if len(plate.items) == len(members) and waiting:
@@ -295,20 +296,23 @@ def pierces(part: FlatPart) -> int:
     return 1 + len(part.holes) + len(part.round_holes)
 
 
-def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
-    """Nest all flat parts on stock plates.
+def _grow(job: Job) -> float:
+    """How far packing shapes are grown beyond the outlines, mm."""
+    return job.cutting.part_spacing / 2 + SAFETY_GAP
 
-    Returns :class:`Nests`: plates numbered from 1 across all (material, thickness) groups, each
-    placement's transform (3, 3) maps the part's flat frame to plate coordinates (origin at the
-    plate corner, x along the plate length, mm). Issues: ``part-too-large`` (left out),
-    ``invalid-outline`` (left out).
-    """
+
+def _usable(job: Job) -> tuple[float, float]:
+    """(length, height) of the area the grown shapes are packed into on one plate, mm."""
+    cutting, grow = job.cutting, _grow(job)
+    return (cutting.plate_length - 2 * cutting.plate_margin + 2 * grow,
+            cutting.plate_width - 2 * cutting.plate_margin + 2 * grow)
+
+
+def _groups(flat: FlatParts, job: Job) -> tuple[dict[tuple[str, float], list[_Item]],
+                                                list[Issue]]:
+    """Parts ready for packing, by (material, thickness); issues for parts left out."""
     cutting = job.cutting
-    grow = cutting.part_spacing / 2 + SAFETY_GAP
-    usable_length = cutting.plate_length - 2 * cutting.plate_margin + 2 * grow
-    usable_width = cutting.plate_width - 2 * cutting.plate_margin + 2 * grow
-    plate_area = cutting.plate_length * cutting.plate_width
-    started = time.perf_counter()
+    length, height = _usable(job)
     issues: list[Issue] = []
     groups: dict[tuple[str, float], list[_Item]] = defaultdict(list)
     for part in flat.parts:
@@ -317,9 +321,8 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
         except ValueError as err:
             issues.append(Issue("invalid-outline", str(err), part.id, "error"))
             continue
-        shape = packing_shape(outline, grow)
-        rotations = _fitting_rotations(shape, list(cutting.rotations), usable_length,
-                                       usable_width)
+        shape = packing_shape(outline, _grow(job))
+        rotations = _fitting_rotations(shape, list(cutting.rotations), length, height)
         if not rotations:
             size = outline.max(axis=0) - outline.min(axis=0)
             issues.append(Issue(
@@ -330,6 +333,32 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
                 f"{list(cutting.rotations)}; it is left out of the nests", part.id, "error"))
             continue
         groups[(part.material, float(part.thickness))].append(_Item(part, shape, rotations))
+    return groups, issues
+
+
+def bounding_box_plates(flat: FlatParts, job: Job) -> dict[tuple[str, float], int]:
+    """Plates per (material, thickness) when only the parts' bounding boxes are packed (the
+    naive nest, and the first assignment :func:`nest` improves on)."""
+    length, height = _usable(job)
+    turns = {r % 180 for r in job.cutting.rotations} == {0, 90}
+    groups, _ = _groups(flat, job)
+    return {key: len(_box_plates(items, length, height, turns))
+            for key, items in sorted(groups.items())}
+
+
+def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
+    """Nest all flat parts on stock plates.
+
+    Returns :class:`Nests`: plates numbered from 1 across all (material, thickness) groups, each
+    placement's transform (3, 3) maps the part's flat frame to plate coordinates (origin at the
+    plate corner, x along the plate length, mm). Issues: ``part-too-large`` (left out),
+    ``invalid-outline`` (left out).
+    """
+    cutting = job.cutting
+    grow = _grow(job)
+    plate_area = cutting.plate_length * cutting.plate_width
+    started = time.perf_counter()
+    groups, issues = _groups(flat, job)
 
     total = sum(len(g) for g in groups.values())
     placed_parts = 0
