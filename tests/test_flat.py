@@ -125,6 +125,13 @@ def test_cut_sheets_and_ribs(tmp_path):
     assert len(cone.bend_lines) > 0
     assert [label[0] for label in top.labels] == ["P001-TOP", "P001", "OUT CONVEX R4000"]
     assert top.forming == "OUT CONVEX R4000" and cone.forming == "OUT CONVEX R866-1501"
+    # bend lines stop short of the etched labels (the middle ones run through them)
+    from shapely.geometry import LineString
+
+    from fabpanel.flat.unroll import label_boxes
+    text = label_boxes(top.labels).buffer(-0.5)
+    assert len(top.bend_lines) > 5
+    assert not any(LineString(line).intersects(text) for line in top.bend_lines)
     assert not flat.issues
 
     files = write_parts(flat, tmp_path)

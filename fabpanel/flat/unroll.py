@@ -85,6 +85,33 @@ def place_labels(outline: np.ndarray, lines: list[str], angle: float | None = No
                  for text, off in zip(lines, offsets))
 
 
+def label_boxes(labels) -> shapely.Geometry:
+    """The area the etched labels cover, with a clear border of half a cap height."""
+    boxes = []
+    for text, x, y, height, angle in labels:
+        half = np.array([text_width(text, height) / 2 + height / 2, 1.3 * height])
+        corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * half
+        turn = np.radians(angle)
+        rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+        boxes.append(Polygon(corners @ rotation.T + [x, y]))
+    return shapely.union_all(boxes)
+
+
+def lines_around_labels(lines: np.ndarray, labels) -> np.ndarray:
+    """(c', 2, 2) float: bend lines with the stretches under a label left out, so the etched
+    text stays legible; pieces shorter than 5 mm are dropped."""
+    if not len(lines) or not labels:
+        return lines
+    covered = label_boxes(labels)
+    pieces = []
+    for line in lines:
+        rest = LineString(line).difference(covered)
+        for piece in getattr(rest, "geoms", [rest]):
+            if piece.length >= 5.0:
+                pieces.append(np.asarray(piece.coords)[[0, -1]])
+    return np.array(pieces).reshape(-1, 2, 2)
+
+
 def grid_point(grid: np.ndarray, u: float, v: float) -> np.ndarray:
     """The point at fractions ``(u, v)`` of a grid's index ranges (bilinear between samples):
     sheet holes are stored in the surface parameters, which index ``surface_grid`` uniformly."""
@@ -107,11 +134,12 @@ def unroll_sheet(part: Part) -> FlatPart:
     lengths_3d = polyline_lengths(grid_sides(grid))
     bending = bending_of(grid, uv, outline)
     labels = place_labels(outline, [part.id, part.panel_id, bending.instruction()], angle=0.0)
+    bend_lines = lines_around_labels(bending.lines, labels)
     holes = tuple(dataclasses.replace(h, centre=tuple(grid_point(uv, *h.centre)))
                   for h in part.holes)
     return FlatPart(id=part.id, kind=part.kind, panel_id=part.panel_id, material=part.material,
                     thickness=part.thickness, outline=outline, round_holes=holes,
-                    bend_lines=bending.lines, labels=labels, max_strain=strain,
+                    bend_lines=bend_lines, labels=labels, max_strain=strain,
                     forming=bending.instruction(),
                     edge_lengths_flat=lengths_flat, edge_lengths_3d=lengths_3d)
 
