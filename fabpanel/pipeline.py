@@ -224,7 +224,7 @@ def _write_plate_chunk(nests: Nests, flat: FlatParts, folder: Path) -> dict:
 def _write_cut_files(flat: FlatParts, nests: Nests, folder: Path,
                      workers: int) -> tuple[dict, dict]:
     """Part DXFs and plate DXF/PNGs, in worker processes (each file is independent)."""
-    from concurrent.futures import ProcessPoolExecutor
+    from .parallel import worker_pool
 
     def chunks(items):
         size = max(1, -(-len(items) // (4 * workers)))
@@ -236,7 +236,7 @@ def _write_cut_files(flat: FlatParts, nests: Nests, folder: Path,
         part_maps = [_write_part_chunk(c, folder / "parts") for c in part_chunks]
         plate_maps = [_write_plate_chunk(c, flat, folder / "nests") for c in plate_chunks]
     else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with worker_pool(workers) as pool:
             part_futures = [pool.submit(_write_part_chunk, c, folder / "parts")
                             for c in part_chunks]
             plate_futures = [pool.submit(_write_plate_chunk, c, flat, folder / "nests")

@@ -13,7 +13,10 @@ from that face, so the face seen in the drawing ends up convex.
 
 Rulings are not grid lines in general (the optimiser moves the grid freely), so the bend lines
 are laid at evenly spaced stations across the sheet, each through the middle of the sheet at its
-station and along the ruling direction there, clipped to the outline.
+station. The local ruling direction there points it; then the line is turned about that point
+until the surface normals sampled along its whole length agree best (a developable surface's
+normal is constant along a ruling), which is far more precise over a long line than the local
+finite-difference estimate. Lines are clipped to the outline.
 """
 
 from __future__ import annotations
@@ -22,12 +25,18 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
+from scipy.optimize import minimize_scalar
 from shapely.geometry import LineString, Point, Polygon
 
 #: number of bend lines etched on a single-curved sheet
 BEND_LINES = 5
 #: a sheet counts as flat when its largest bending sagitta over its diagonal is below this, mm
 FLAT_SAGITTA = 0.5
+#: beyond this ratio of largest to smallest radius only the smallest is etched (``R934+``)
+OPEN_RADIUS_RATIO = 10.0
+#: a bend line is turned by at most this much (radians) from the local ruling direction when
+#: it is fitted along its whole length
+REFINE_ANGLE = 0.1
 #: a sheet counts as single-curved when its typical smaller curvature is below this share of
 #: its typical bending curvature
 SINGLE_CURVED_RATIO = 0.1
@@ -54,13 +63,20 @@ class Bending:
     convex: bool
 
     def instruction(self) -> str:
-        """The etched forming instruction, e.g. ``OUT CONVEX R3998`` or ``R2600-4000``."""
+        """The etched forming instruction: ``OUT CONVEX R4000`` (cylinder), ``OUT CONCAVE
+        R866-1501`` (a cone's radii along its rulings), ``OUT CONVEX R934+`` (from R934 opening
+        out to nearly flat), ``OUT FLAT``, ``OUT DOUBLE CURVED``."""
         if self.form == "flat":
             return "OUT FLAT"
         if self.form == "double":
             return "OUT DOUBLE CURVED"
         low, high = int(round(self.radii[:, 0].min())), int(round(self.radii[:, 1].max()))
-        radius = f"R{low}" if high - low <= max(0.01 * low, 1) else f"R{low}-{high}"
+        if high - low <= max(0.01 * low, 1):
+            radius = f"R{low}"
+        elif high <= OPEN_RADIUS_RATIO * low:
+            radius = f"R{low}-{high}"
+        else:                               # opens out to nearly flat: the tightest radius
+            radius = f"R{low}+"
         return f"OUT {'CONVEX' if self.convex else 'CONCAVE'} {radius}"
 
 
@@ -109,6 +125,32 @@ def _undoubled(doubled: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(angle), np.sin(angle)], axis=-1)
 
 
+def _chord(seed: np.ndarray, angle: float, polygon: Polygon, reach: float
+           ) -> np.ndarray | None:
+    """(2, 2) float: the piece of the line through ``seed`` at ``angle`` inside the polygon."""
+    direction = np.array([np.cos(angle), np.sin(angle)])
+    cut = LineString([seed - reach * direction, seed + reach * direction]).intersection(polygon)
+    pieces = [g for g in getattr(cut, "geoms", [cut]) if g.length > 0]
+    if not pieces:
+        return None
+    piece = min(pieces, key=lambda g: g.distance(Point(seed)))
+    return np.asarray(piece.coords)[[0, -1]]
+
+
+def _normal_spread(seed: np.ndarray, angle: float, polygon: Polygon, reach: float,
+                   normals: LinearNDInterpolator) -> float:
+    """How much the surface normal varies along the chord through ``seed`` at ``angle``."""
+    ends = _chord(seed, angle, polygon, reach)
+    if ends is None:
+        return np.inf
+    along = np.linspace(0.02, 0.98, 25)[:, None]
+    sampled = normals(ends[0] + along * (ends[1] - ends[0]))
+    sampled = sampled[np.all(np.isfinite(sampled), axis=1)]
+    if len(sampled) < 2:
+        return np.inf
+    return float(((sampled - sampled.mean(axis=0)) ** 2).sum(axis=1).mean())
+
+
 def bending_of(grid: np.ndarray, uv: np.ndarray, outline: np.ndarray,
                count: int = BEND_LINES) -> Bending:
     """Classify a sheet and lay its bend lines (see the module docstring)."""
@@ -127,6 +169,10 @@ def bending_of(grid: np.ndarray, uv: np.ndarray, outline: np.ndarray,
     nearest = NearestNDInterpolator(points, np.column_stack([doubled * weights[:, None],
                                                              weights]))
     curvature = LinearNDInterpolator(points, bending.reshape(-1))
+    normal = np.cross(*np.gradient(grid, axis=(0, 1), edge_order=2))
+    normals = LinearNDInterpolator(points, (normal / np.linalg.norm(normal, axis=-1,
+                                                                    keepdims=True)
+                                            ).reshape(-1, 3))
     mean_ruling = _undoubled((doubled * weights[:, None]).sum(axis=0))
     across = np.array([-mean_ruling[1], mean_ruling[0]])
     polygon = Polygon(outline)
@@ -146,13 +192,16 @@ def bending_of(grid: np.ndarray, uv: np.ndarray, outline: np.ndarray,
         if not np.all(np.isfinite(value)):
             value = nearest(seed[None])[0]
         direction = _undoubled(value[:2])
-        chord = LineString([seed - reach * direction, seed + reach * direction])
-        pieces = chord.intersection(polygon)
-        pieces = [g for g in getattr(pieces, "geoms", [pieces]) if g.length > 0]
-        if not pieces:
+        # the local estimate points the line; the whole line then sets it: along a ruling the
+        # normal does not change, so turn the line about its seed until the normals sampled
+        # along it agree best
+        angle = float(np.arctan2(direction[1], direction[0]))
+        found = minimize_scalar(lambda a, s=seed: _normal_spread(s, a, polygon, reach, normals),
+                                bounds=(angle - REFINE_ANGLE, angle + REFINE_ANGLE),
+                                method="bounded", options={"xatol": 1e-6})
+        ends = _chord(seed, float(found.x), polygon, reach)
+        if ends is None:
             continue
-        piece = min(pieces, key=lambda g: g.distance(Point(seed)))
-        ends = np.asarray(piece.coords)[[0, -1]]
         along = np.linspace(0.0, 1.0, 11)[:, None]
         samples = curvature(ends[0] + along * (ends[1] - ends[0]))
         samples = samples[np.isfinite(samples)]

@@ -13,7 +13,6 @@ import dataclasses
 import logging
 import os
 from collections import Counter
-from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 import shapely
@@ -25,6 +24,7 @@ from ..errors import GeometryError, Issue
 from ..geom.flatten import flatten_grid
 from ..geom.polygon import polygon_area
 from ..job import Job
+from ..parallel import worker_pool
 from .bending import bending_of
 from .strokefont import text_width
 
@@ -176,7 +176,7 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
     light = [dataclasses.replace(part, brep=b"") for part in model.parts]
     workers = jobs or os.cpu_count() or 1
     if workers > 1 and len(light) > 8:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with worker_pool(workers) as pool:
             flats = list(pool.map(_lay_flat, light, chunksize=max(1, len(light) // (4 * workers))))
     else:
         flats = [_lay_flat(part) for part in light]

@@ -26,7 +26,7 @@ import logging
 import os
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from typing import Any
 
 import numpy as np
@@ -34,6 +34,7 @@ import numpy as np
 from ..data import DevelopedPanels, Model, Part
 from ..errors import Issue
 from ..job import Job
+from ..parallel import worker_pool
 from ..tolerances import TOLERANCES
 from .clash import find_clashes, part_solid
 from .panel import build_panel
@@ -109,7 +110,7 @@ def build(developed: DevelopedPanels, job: Job, jobs: int | None = None,
             if progress:
                 progress(1)
     else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with worker_pool(workers) as pool:
             futures = {pool.submit(build_panel, payload): p for p, payload in enumerate(payloads)}
             for future in as_completed(futures):
                 results[futures[future]] = future.result()

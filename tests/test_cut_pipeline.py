@@ -1,0 +1,113 @@
+"""The cut stage on a pipeline model that is not a cylinder: a cone patch through panelise,
+global develop and build. Flat sheet edges are checked against the edges of the built solids
+(OCCT), and the bend lines against the cone's generators."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import cone_patch
+
+import fabpanel as fp
+from fabpanel.tolerances import TOLERANCES
+
+
+@pytest.fixture(scope="module")
+def cone_run(tmp_path_factory):
+    surface = cone_patch(tmp_path_factory.mktemp("cone"))
+    job = fp.Job.from_dict({"panelize": {"grid_u": 3, "grid_v": 3},
+                            "develop": {"method": "global"}})
+    developed = fp.develop(fp.panelize(surface, job), surface, job)
+    model = fp.build(developed, job, jobs=2)
+    return model, fp.cut(model, job, jobs=2)
+
+
+def face_edges(brep: bytes) -> list[list[tuple[np.ndarray, float]]]:
+    """Per large face of a sheet solid (its two sheet faces): (midpoint, length) of each edge
+    of the face's outer wire, measured by OCCT."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.BRepGProp import BRepGProp
+    from OCP.BRepTools import BRepTools
+    from OCP.GCPnts import GCPnts_AbscissaPoint
+    from OCP.GProp import GProp_GProps
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    from fabpanel.model import occ
+
+    faces = []
+    explorer = TopExp_Explorer(occ.from_brep(brep), TopAbs_FACE)
+    while explorer.More():
+        face = TopoDS.Face(explorer.Current())
+        props = GProp_GProps()
+        BRepGProp.SurfaceProperties_s(face, props)
+        faces.append((props.Mass(), face))
+        explorer.Next()
+    out = []
+    for _, face in sorted(faces, key=lambda f: -f[0])[:2]:
+        edges = []
+        walk = TopExp_Explorer(BRepTools.OuterWire_s(face), TopAbs_EDGE)
+        while walk.More():
+            curve = BRepAdaptor_Curve(TopoDS.Edge(walk.Current()))
+            middle = curve.Value((curve.FirstParameter() + curve.LastParameter()) / 2)
+            edges.append((np.array([middle.X(), middle.Y(), middle.Z()]),
+                          GCPnts_AbscissaPoint.Length_s(curve)))
+            walk.Next()
+        out.append(edges)
+    return out
+
+
+def test_unrolled_edges_equal_the_edges_of_the_built_sheets(cone_run):
+    from fabpanel.flat.unroll import grid_sides
+
+    model, flat = cone_run
+    parts = {p.id: p for p in model.parts}
+    sheets = [p for p in flat.parts if p.kind.startswith("sheet")]
+    assert len(sheets) == 18
+    worst = 0.0
+    for sheet in sheets:
+        sides = grid_sides(np.asarray(parts[sheet.id].surface_grid))
+        faces = face_edges(parts[sheet.id].brep)
+        for side, flat_length in zip(sides, sheet.edge_lengths_flat):
+            middle = side[len(side) // 2]
+            # the mid fibre's edge: the mean of the matching edges of the two sheet faces
+            lengths = [min(edges, key=lambda e: np.linalg.norm(e[0] - middle))[1]
+                       for edges in faces]
+            worst = max(worst, abs(flat_length - np.mean(lengths)))
+    assert worst < TOLERANCES.unrolled_edge
+
+
+def test_bend_lines_follow_the_cone_generators(cone_run):
+    from scipy.interpolate import LinearNDInterpolator
+
+    from fabpanel.geom.flatten import flatten_grid
+
+    model, flat = cone_run
+    parts = {p.id: p for p in model.parts}
+    apex = np.zeros(3)                   # the cone's apex: generators pass through it
+    for sheet in (p for p in flat.parts if p.kind.startswith("sheet")):
+        assert sheet.forming.startswith("OUT CON"), sheet.forming   # convex or concave
+        grid = np.asarray(parts[sheet.id].surface_grid)
+        uv, _ = flatten_grid(grid)
+        to_3d = LinearNDInterpolator(uv.reshape(-1, 2), grid.reshape(-1, 3))
+        lines = sheet.bend_lines
+        assert len(lines) >= 5
+        # the long pieces (bend lines cut short by the labels are checked as part of them)
+        lines = lines[np.linalg.norm(lines[:, 1] - lines[:, 0], axis=1) > 300.0]
+        assert len(lines) >= 3
+        t = np.linspace(0.01, 0.99, 41)[:, None]
+        for line in lines:
+            points = to_3d(line[0] + t * (line[1] - line[0]))
+            axis = (points[-1] - points[0]) / np.linalg.norm(points[-1] - points[0])
+            rel = points - points[0]
+            # a ruling of the built sheet: straight on the surface
+            bow = np.linalg.norm(rel - (rel @ axis)[:, None] * axis, axis=1).max()
+            assert bow < 0.05, (sheet.id, bow)
+            if sheet.kind == "sheet-bottom":
+                continue              # an offset cone 150 mm down: its apex lies elsewhere
+            # and close to the cone's generator there (the developed panel is a developable
+            # surface within millimetres of the cone, not the cone itself)
+            generator = points[len(points) // 2] - apex
+            generator /= np.linalg.norm(generator)
+            assert np.degrees(np.arccos(min(abs(generator @ axis), 1.0))) < 1.5, sheet.id
