@@ -379,12 +379,14 @@ def build_manifest(result: Result, files: dict[str, list[str]]) -> dict:
 
 
 def _write_bom(result: Result, path: Path, files: dict[str, list[str]]) -> None:
+    from .flat.nest import cut_length, pierces
+
     flat_by_id, plate_of = _flat_and_plate_of(result)
     with path.open("w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(["part", "kind", "panel", "material", "thickness_mm", "flat_area_mm2",
                          "volume_mm3", "mass_kg", "flat_length_mm", "flat_width_mm",
-                         "max_strain", "plate", "files"])
+                         "max_strain", "forming", "cut_length_mm", "pierces", "plate", "files"])
         if result.model is None:
             return
         for part in result.model.parts:
@@ -397,4 +399,7 @@ def _write_bom(result: Result, path: Path, files: dict[str, list[str]]) -> None:
                 f"{size[0]:.1f}" if flat is not None else "",
                 f"{size[1]:.1f}" if flat is not None else "",
                 f"{flat.max_strain:.2e}" if flat is not None else "",
+                flat.forming if flat is not None else "",
+                f"{cut_length(flat):.1f}" if flat is not None else "",
+                pierces(flat) if flat is not None else "",
                 plate_of.get(part.id, ""), " ".join(files.get(part.id, []))])

@@ -75,6 +75,14 @@ def test_output_contract(vault_run):
     assert [r["part"] for r in rows] == [p["id"] for p in manifest["parts"]]
     mass = sum(float(r["mass_kg"]) for r in rows)
     assert mass == pytest.approx(vault_run.model.mass, rel=1e-4)
+    # the vault's sheets roll with their outer faces convex, at their mid-fibre radii
+    sheets = [r for r in rows if r["kind"].startswith("sheet")]
+    assert all(r["forming"].startswith("OUT CONVEX R") for r in sheets)
+    radii = [int(r["forming"].split("R")[-1]) for r in sheets if r["kind"] == "sheet-top"]
+    assert max(abs(r - (RADIUS - 1.5)) for r in radii) <= 2
+    assert sum(int(r["pierces"]) for r in rows) == manifest["metrics"]["nest"]["pierces"]
+    assert sum(float(r["cut_length_mm"]) for r in rows) == pytest.approx(
+        manifest["metrics"]["nest"]["cut_length_mm"], abs=0.05 * len(rows))
     assert not list(out.parent.glob(".out.*"))              # no staging folder left
     report = (out / "report" / "index.html").read_text()
     # the default (global) rationalisation draws curvature before/after and the deviation map

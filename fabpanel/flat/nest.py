@@ -18,9 +18,9 @@ spyrrow (sparrow: J. Gardeyn, T. Wauters, "An open-source heuristic for 2D irreg
    plates than the boxes, and no part ever crosses a plate end.
 
 A part whose grown shape fits no plate in any allowed rotation becomes a ``part-too-large`` issue.
-Time budget: ``[cutting] nest_time`` per group, spread over the plates it is expected to need
-(spyrrow takes whole seconds); each plate spends its share on one more attempt to add a part with
-spyrrow's improvement phase. 0 s means constructive packs only, which are reproducible bit for
+Time budget: ``[cutting] nest_time`` per group, spread over the plates it is expected to need in
+whole seconds (spyrrow's unit; at least 1 s a plate, so a short budget serves the first plates);
+each plate spends its share on one more attempt to add a part with spyrrow's improvement phase. 0 s means constructive packs only, which are reproducible bit for
 bit (spyrrow's own seed is ``seed`` plus the plate's index).
 """
 
@@ -262,7 +262,9 @@ def _nest_group(items: list[_Item], job: Job, grow: float, budget_s: float, seed
     # a part that fits one way only cannot be turned by rectpack: its turned box does not fit
     boxes = _box_plates(items, length, height, {r % 180 for r in cutting.rotations} == {0, 90})
     estimate = sum(abs(polygon_area(it.shape)) for it in items) / (FILL_DENSITY * length * height)
-    seconds = _round_seconds(budget_s / max(math.ceil(estimate), 1))
+    # the budget in whole seconds per plate (spyrrow's unit), at least 1 s while any is left
+    share = max(math.ceil(budget_s / max(math.ceil(estimate), 1)), 1)
+    deadline = time.perf_counter() + budget_s
     placed: set[int] = set()
     plates: list[list[tuple[_Item, np.ndarray]]] = []
     for index, assigned in enumerate(boxes):
@@ -275,7 +277,8 @@ def _nest_group(items: list[_Item], job: Job, grow: float, budget_s: float, seed
         waiting = sorted((it for later in boxes[index + 1:] for it in later.items
                           if id(it) not in placed), key=lambda it: abs(polygon_area(it.shape)))
         if len(plate.items) == len(members) and waiting:
-            plate = _fill(plate, waiting, length, height, seconds, seed + index)
+            left = _round_seconds(deadline - time.perf_counter())
+            plate = _fill(plate, waiting, length, height, min(share, left), seed + index)
         placed |= {id(it) for it in plate.items}
         plates.append([(it, offset @ t) for it, t in zip(plate.items, plate.transforms)])
         on_round(len(items) - len(placed))
