@@ -505,6 +505,7 @@ plate_margin = "10 mm"         # clear border along the plate edges
 nest_time = "0 s"              # improvement time per material/thickness group; 0 s = reproducible
 rotations = [0, 90, 180, 270]
 neutral_fibre = "mid"          # sheets are unrolled at this fibre: mid | outer | inner
+min_plasma_hole = 1.0          # holes under this many thicknesses are drilled (DRILL layer)
 seed = 0                       # same seed, same nest
 
 [loads]

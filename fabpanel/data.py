@@ -322,7 +322,8 @@ class FlatPart:
     outline : (n, 2) float
         outer contour, counter-clockwise, not closed (first point not repeated).
     holes : tuple of (k, 2) float
-        inner contours (clockwise), and round holes as ``Hole`` in ``round_holes``.
+        inner contours (clockwise), and round holes as ``Hole`` in ``round_holes`` (cut) and
+        ``drill_holes`` (too small for the plasma: drilled, their centres etched).
     etch : tuple of (k, 2) float
         polylines to etch (labels, bend lines), not cut.
     bend_lines : (b, 2, 2) float
@@ -345,6 +346,7 @@ class FlatPart:
     outline: np.ndarray
     holes: tuple[np.ndarray, ...] = ()
     round_holes: tuple[Hole, ...] = ()
+    drill_holes: tuple[Hole, ...] = ()
     etch: tuple[np.ndarray, ...] = ()
     bend_lines: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
     labels: tuple[tuple[str, float, float, float, float], ...] = ()
@@ -360,7 +362,8 @@ class FlatPart:
         from .geom.polygon import polygon_area
 
         net = abs(polygon_area(self.outline)) - sum(abs(polygon_area(h)) for h in self.holes)
-        return float(net - sum(np.pi * h.diameter ** 2 / 4 for h in self.round_holes))
+        return float(net - sum(np.pi * h.diameter ** 2 / 4
+                               for h in self.round_holes + self.drill_holes))
 
     def to_dict(self) -> dict:
         record = {"id": self.id, "kind": self.kind, "panel": self.panel_id,

@@ -187,6 +187,10 @@ class CuttingSection(_Section):
     nest_time: Duration = "0 s"
     #: allowed part rotations on the plate, degrees
     rotations: list[Literal[0, 90, 180, 270]] = Field(default=[0, 90, 180, 270], min_length=1)
+    #: round holes smaller than this many plate thicknesses are drilled, not cut: plasma cuts
+    #: clean holes down to about 1-1.5 x the thickness. They go on the DRILL layer with an
+    #: etched centre mark, and are not pierced
+    min_plasma_hole: float = Field(default=1.0, ge=0.0, le=5.0)
     #: sheets are unrolled at this fibre of the plate
     neutral_fibre: Literal["mid", "outer", "inner"] = "mid"
     seed: int = Field(default=0, ge=0)

@@ -231,6 +231,32 @@ def test_dxf_conventions(tmp_path):
     assert len(outer) == 1 and outer[0].closed
 
 
+def test_small_holes_are_drilled_not_cut(tmp_path):
+    import ezdxf
+
+    from fabpanel.flat.nest import pierces
+
+    model = Model(parts=(rib(),), developed=None)  # type: ignore[arg-type]
+    cut_holes = cut(model, Job.from_dict({})).parts[0]             # 13 mm in 8 mm: 1.6 t
+    drilled = cut(model, Job.from_dict({"cutting": {"min_plasma_hole": 2.0}})).parts[0]
+    assert len(cut_holes.round_holes) == 2 and not cut_holes.drill_holes
+    assert len(drilled.drill_holes) == 2 and not drilled.round_holes
+    assert pierces(cut_holes) == 3 and pierces(drilled) == 1
+    assert drilled.area == pytest.approx(cut_holes.area)
+    path = write_part_dxf(drilled, tmp_path / "rib.dxf")
+    msp = ezdxf.readfile(path).modelspace()
+    assert len(msp.query('CIRCLE[layer=="DRILL"]')) == 2
+    assert not msp.query('CIRCLE[layer=="CUT-INNER"]')
+    # each drill hole gets an etched centre cross through its centre
+    centres = {tuple(np.round(h.centre, 6)) for h in drilled.drill_holes}
+    crosses = [e for e in msp.query('LWPOLYLINE[layer=="ETCH"]') if len(e) == 2
+               and tuple(np.round(np.mean([p[:2] for p in e.get_points()], axis=0), 6))
+               in centres]
+    assert len(crosses) == 4
+    assert part_area_from_dxf(path) == pytest.approx(drilled.area, rel=1e-6)
+    assert audit_dxf(path) == []
+
+
 def test_stroke_font_covers_label_characters():
     assert set("ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_. ") <= CHARACTERS
     strokes = text_strokes("P012-RIB-3", 0.0, 0.0, 20.0, 90.0)

@@ -7,7 +7,8 @@ round holes, no SPLINE/ELLIPSE/TEXT. Layers by operation:
 
 ``CUT-OUTER``  outer contours (cut last)
 ``CUT-INNER``  holes (cut first)
-``ETCH``       labels as single-stroke polylines and bend lines (marked, not cut)
+``ETCH``       labels as single-stroke polylines, bend lines, drill centre crosses (marked)
+``DRILL``      round holes too small for the plasma (drilled after cutting, not pierced)
 ``PLATE``      the stock plate outline (nests only)
 """
 
@@ -30,7 +31,7 @@ log = logging.getLogger(__name__)
 
 DXF_VERSION = "R2010"
 #: layer name -> ACI colour
-LAYERS = {"CUT-OUTER": 7, "CUT-INNER": 1, "ETCH": 3, "PLATE": 8}
+LAYERS = {"CUT-OUTER": 7, "CUT-INNER": 1, "ETCH": 3, "DRILL": 5, "PLATE": 8}
 #: entity types a plasma DXF must not contain
 FORBIDDEN = ("SPLINE", "ELLIPSE", "TEXT", "MTEXT")
 
@@ -59,6 +60,9 @@ def etch_polylines(part: FlatPart) -> list[np.ndarray]:
     lines += [np.asarray(b, dtype=float) for b in part.bend_lines]
     for text, x, y, height, angle in part.labels:
         lines += text_strokes(text, x, y, height, angle)
+    for hole in part.drill_holes:            # a centre cross for the drill
+        centre, arm = np.asarray(hole.centre, dtype=float), 0.75 * hole.diameter
+        lines += [centre + [[-arm, 0.0], [arm, 0.0]], centre + [[0.0, -arm], [0.0, arm]]]
     return lines
 
 
@@ -76,6 +80,9 @@ def add_part(msp, part: FlatPart, transform: np.ndarray | None = None,
     for hole in part.round_holes:
         centre = _apply(transform, np.array([hole.centre]))[0]
         msp.add_circle(centre.tolist(), hole.diameter / 2, dxfattribs={"layer": "CUT-INNER"})
+    for hole in part.drill_holes:
+        centre = _apply(transform, np.array([hole.centre]))[0]
+        msp.add_circle(centre.tolist(), hole.diameter / 2, dxfattribs={"layer": "DRILL"})
     add_contour(msp, part.outline, "CUT-OUTER", transform)
 
 
@@ -143,9 +150,11 @@ def _polyline_area(entities: Iterable) -> float:
 
 
 def part_area_from_dxf(path: str | Path) -> float:
-    """Net part area, mm2: CUT-OUTER polylines minus CUT-INNER polylines and circles."""
+    """Net part area, mm2: CUT-OUTER polylines minus CUT-INNER polylines and circles and the
+    DRILL circles."""
     msp = ezdxf.readfile(str(path)).modelspace()
     outer = _polyline_area(msp.query('LWPOLYLINE[layer=="CUT-OUTER"]'))
     inner = _polyline_area(msp.query('LWPOLYLINE[layer=="CUT-INNER"]'))
-    circles = sum(np.pi * c.dxf.radius ** 2 for c in msp.query('CIRCLE[layer=="CUT-INNER"]'))
+    circles = sum(np.pi * c.dxf.radius ** 2
+                  for c in msp.query('CIRCLE[layer=="CUT-INNER" | layer=="DRILL"]'))
     return float(outer - inner - circles)

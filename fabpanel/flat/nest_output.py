@@ -62,7 +62,7 @@ def write_plate_png(plate: Plate, parts: dict[str, FlatPart], path: str | Path,
         t = np.asarray(placement.transform)
         outline = transform_points(t, part.outline)
         contours = [outline] + [transform_points(t, h) for h in part.holes]
-        for hole in part.round_holes:
+        for hole in part.round_holes + part.drill_holes:
             angle = np.linspace(0, 2 * np.pi, 24, endpoint=False)
             circle = np.stack([np.cos(angle), np.sin(angle)], 1) * hole.diameter / 2
             contours.append(transform_points(t, circle + hole.centre)[::-1])

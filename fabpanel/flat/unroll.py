@@ -167,7 +167,8 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
     """Lay every part of the model flat (sheets unrolled in ``jobs`` worker processes).
 
     Sheets (``sheet-top``/``sheet-bottom``) are unrolled from their ``surface_grid``; ribs and
-    stiffeners keep their outline. Issues: ``unroll-strain`` when a sheet's strain exceeds
+    stiffeners keep their outline. Round holes smaller than ``[cutting] min_plasma_hole`` plate
+    thicknesses become drill holes. Issues: ``unroll-strain`` when a sheet's strain exceeds
     ``[develop] strain_tolerance``, ``invalid-outline`` for self-intersecting outlines.
     """
     tolerance = job.develop.strain_tolerance
@@ -180,6 +181,12 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
             flats = list(pool.map(_lay_flat, light, chunksize=max(1, len(light) // (4 * workers))))
     else:
         flats = [_lay_flat(part) for part in light]
+    smallest = job.cutting.min_plasma_hole
+    flats = [dataclasses.replace(
+        flat, round_holes=tuple(h for h in flat.round_holes
+                                if h.diameter >= smallest * flat.thickness),
+        drill_holes=tuple(h for h in flat.round_holes if h.diameter < smallest * flat.thickness))
+        for flat in flats]
     for part, flat in zip(model.parts, flats):
         if flat.max_strain > tolerance:
             issues.append(Issue("unroll-strain", f"{part.id} unrolls with strain "
@@ -199,6 +206,7 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
         "strain_by_part": {p.id: float(p.max_strain) for p in sheets},
         "max_edge_length_error_mm": edge_error,
         "bend_lines": int(sum(len(p.bend_lines) for p in parts)),
+        "drill_holes": int(sum(len(p.drill_holes) for p in parts)),
         "area_mm2": float(sum(p.area for p in parts)),
     }
     log.info("cut: %d flat parts, max strain %.2e, edge length error %.3f mm", len(parts),
