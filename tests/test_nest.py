@@ -134,3 +134,36 @@ def test_write_nests(mixed, tmp_path):
         outline = Polygon([p[:2] for p in following.get_points()])
         assert outline.contains(Point(centre[0], centre[1]))
     assert max(i for i, x in enumerate(layers) if x == "ETCH") < layers.index("CUT-OUTER")
+
+
+def test_plate_files_hold_the_parts_at_their_spacing(mixed, tmp_path):
+    """Read back from the plate DXFs alone: every part once, inside the plate margin, at least
+    the part spacing apart, with the same net area as its own part DXF."""
+    import ezdxf
+    from ezdxf.path import make_path
+    from shapely.geometry import Polygon, box
+
+    from fabpanel.flat import part_area_from_dxf, write_parts
+
+    flat, nests = mixed
+    part_files = write_parts(flat, tmp_path / "parts")
+    part_area = sum(part_area_from_dxf(tmp_path / "parts" / name) for name in part_files.values())
+    plate_files = write_nests(nests, flat, tmp_path / "nests")
+    cutting = JOB.cutting
+    contours, net = 0, 0.0
+    for plate in nests.plates:
+        path = tmp_path / "nests" / plate_files[plate.name][0]
+        outers = [Polygon([(v.x, v.y) for v in make_path(e).flattening(0.01)])
+                  for e in ezdxf.readfile(path).modelspace().query('LWPOLYLINE[layer=="CUT-OUTER"]')]
+        assert len(outers) == len(plate.placements)
+        usable = box(cutting.plate_margin, cutting.plate_margin,
+                     cutting.plate_length - cutting.plate_margin,
+                     cutting.plate_width - cutting.plate_margin).buffer(0.05)
+        assert all(usable.contains(p) for p in outers)
+        for i, a in enumerate(outers):
+            for b in outers[i + 1:]:
+                assert a.distance(b) >= cutting.part_spacing - 0.05
+        contours += len(outers)
+        net += part_area_from_dxf(path)
+    assert contours == len(flat.parts)
+    assert net == pytest.approx(part_area, rel=1e-9)
