@@ -7,6 +7,7 @@ import pytest
 
 from fabpanel.data import FlatPart, FlatParts, Hole
 from fabpanel.flat import audit_dxf, nest, validate_nests, write_nests
+from fabpanel.flat.nest import bounding_box_plates
 from fabpanel.job import Job
 
 JOB = Job.from_dict({"cutting": {"nest_time": "0 s", "plate_length": "2000 mm",
@@ -55,7 +56,8 @@ def test_nest_is_valid_over_several_plates(mixed):
     placed = [pl.part_id for plate in nests.plates for pl in plate.placements]
     assert sorted(placed) == sorted(p.id for p in flat.parts)
     m = nests.metrics
-    assert m["plates"] >= m["plates_lower_bound"]
+    assert m["plates_lower_bound"] <= m["plates"] <= m["bounding_box_plates"]
+    assert m["bounding_box_plates"] == sum(bounding_box_plates(flat, JOB).values())
     assert 0 < m["utilisation"] <= 1
     assert m["pierces"] == 20 + 8
     assert m["cut_length_mm"] > 0

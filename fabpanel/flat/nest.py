@@ -246,8 +246,10 @@ def _fill(plate: _Packing, waiting: list[_Item], length: float, height: float, s
 
 
 def _nest_group(items: list[_Item], job: Job, grow: float, budget_s: float, seed: int,
-                on_round: Callable[[int], None]) -> list[list[tuple[_Item, np.ndarray]]]:
-    """Plates of one group: per plate a list of (item, transform part frame -> plate).
+                on_round: Callable[[int], None]
+                ) -> tuple[list[list[tuple[_Item, np.ndarray]]], int]:
+    """Plates of one group: per plate a list of (item, transform part frame -> plate); and how
+    many plates the bounding boxes alone needed.
 
     The bounding-box assignment (:func:`_box_plates`) gives each plate its first parts. Plate by
     plate, spyrrow packs them as irregular shapes (the box layout stays when spyrrow's
@@ -284,7 +286,7 @@ def _nest_group(items: list[_Item], job: Job, grow: float, budget_s: float, seed
         on_round(len(items) - len(placed))
     log.debug("nest: %d parts on %d plates (bounding boxes: %d)", len(items), len(plates),
               len(boxes))
-    return plates
+    return plates, len(boxes)
 
 
 def cut_length(part: FlatPart) -> float:
@@ -366,7 +368,7 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
     total = sum(len(g) for g in groups.values())
     placed_parts = 0
     plates: list[Plate] = []
-    lower_bound = 0
+    lower_bound = boxes = 0
     group_metrics = []
     for (material, thickness), items in sorted(groups.items()):
         group_start = time.perf_counter()
@@ -376,7 +378,9 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
                 progress((done + n - left) / max(total, 1),
                          f"nesting {material} {thickness:g} mm: {n - left}/{n} parts placed")
 
-        layout = _nest_group(items, job, grow, cutting.nest_time, cutting.seed, on_round)
+        layout, box_plates = _nest_group(items, job, grow, cutting.nest_time, cutting.seed,
+                                         on_round)
+        boxes += box_plates
         placed_parts += len(items)
         area = sum(it.part.area for it in items)
         bound = math.ceil(area / plate_area - 1e-9)
@@ -389,7 +393,7 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
                                 utilisation=used / plate_area))
         group_metrics.append({"material": material, "thickness_mm": thickness,
                               "parts": len(items), "plates": len(layout),
-                              "plates_lower_bound": bound,
+                              "plates_lower_bound": bound, "bounding_box_plates": box_plates,
                               "time_s": round(time.perf_counter() - group_start, 3)})
         log.info("nested %d parts of %s %g mm on %d plates (lower bound %d)", len(items),
                  material, thickness, len(layout), bound)
@@ -399,6 +403,7 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
     metrics = {
         "plates": len(plates),
         "plates_lower_bound": lower_bound,
+        "bounding_box_plates": boxes,
         "utilisation_by_plate": {p.name: round(p.utilisation, 4) for p in plates},
         "utilisation": (sum(p.area for p in placed) / (plate_area * len(plates))
                         if plates else 0.0),

@@ -42,7 +42,9 @@ def summarise(result, timings: dict[str, float], structure: dict) -> dict:
             "mass_per_m2_kg": round(result.model.mass / (result.surface.area / 1e6), 2),
             "checks": {k: v for k, v in result.model.metrics.items() if k != "panels"}}
     if result.flat is not None:
-        summary["flat"] = {k: v for k, v in result.flat.metrics.items() if k != "per_part"}
+        # per-part strains stay in the manifest
+        summary["flat"] = {k: v for k, v in result.flat.metrics.items()
+                           if k not in ("per_part", "strain_by_part")}
     if result.nests is not None:
         summary["nests"] = {k: v for k, v in result.nests.metrics.items()
                             if not isinstance(v, (list, dict)) or k in ("utilisation",)}
