@@ -351,6 +351,16 @@ def bounding_box_plates(flat: FlatParts, job: Job) -> dict[tuple[str, float], in
             for key, items in sorted(groups.items())}
 
 
+def _reporter(progress: Progress | None, done: int, count: int, total: int, group: str
+              ) -> Callable[[int], None]:
+    """Progress callback of one group: called with the number of its parts still waiting."""
+    def on_round(left: int) -> None:
+        if progress is not None:
+            progress((done + count - left) / max(total, 1),
+                     f"nesting {group}: {count - left}/{count} parts placed")
+    return on_round
+
+
 def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
     """Nest all flat parts on stock plates.
 
@@ -373,11 +383,8 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
     for (material, thickness), items in sorted(groups.items()):
         group_start = time.perf_counter()
 
-        def on_round(left: int, n=len(items), done=placed_parts) -> None:
-            if progress is not None:
-                progress((done + n - left) / max(total, 1),
-                         f"nesting {material} {thickness:g} mm: {n - left}/{n} parts placed")
-
+        on_round = _reporter(progress, placed_parts, len(items), total,
+                             f"{material} {thickness:g} mm")
         layout, box_plates = _nest_group(items, job, grow, cutting.nest_time, cutting.seed,
                                          on_round)
         boxes += box_plates
