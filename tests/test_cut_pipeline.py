@@ -111,3 +111,34 @@ def test_bend_lines_follow_the_cone_generators(cone_run):
             generator = points[len(points) // 2] - apex
             generator /= np.linalg.norm(generator)
             assert np.degrees(np.arccos(min(abs(generator @ axis), 1.0))) < 1.5, sheet.id
+
+
+def test_plates_say_which_face_looks_into_the_panel(cone_run):
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_VERTEX
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    from fabpanel.model import occ
+
+    model, flat = cone_run
+    parts = {p.id: p for p in model.parts}
+    centre = {p.panel_id: np.asarray(p.surface_grid).reshape(-1, 3).mean(axis=0)
+              for p in model.parts if p.kind == "sheet-top"}
+    plates = [p for p in flat.parts if p.kind in ("rib", "stiffener")]
+    assert len(plates) == 9 * 8
+    for plate in plates:
+        assert [label[0] for label in plate.labels] == [plate.id, plate.panel_id, "IN"]
+        # the drawing shows the frame's +z face: the solid lies on that side of its plane, and
+        # so does the panel's centre
+        frame = np.asarray(parts[plate.id].frame)
+        points = []
+        explorer = TopExp_Explorer(occ.from_brep(parts[plate.id].brep), TopAbs_VERTEX)
+        while explorer.More():
+            p = BRep_Tool.Pnt_s(TopoDS.Vertex(explorer.Current()))
+            points.append((p.X(), p.Y(), p.Z()))
+            explorer.Next()
+        height = (np.asarray(points) - frame[:3, 3]) @ frame[:3, 2]
+        assert height.min() > -1e-6
+        assert height.max() == pytest.approx(plate.thickness, abs=1e-6)
+        assert (centre[plate.panel_id] - frame[:3, 3]) @ frame[:3, 2] > 0

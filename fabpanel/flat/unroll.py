@@ -4,7 +4,8 @@ Sheets are unrolled with :func:`fabpanel.geom.flatten.flatten_grid`; the flat ou
 boundary of the flat grid in side order 0, 1, 2, 3 (counter-clockwise, seen from the outer side).
 Single-curved sheets get their rulings as bend lines and a forming instruction (which way the
 outer face rolls, the radii: :mod:`fabpanel.flat.bending`); every part gets its id and its panel
-id as etched labels, sheets also the forming instruction (``OUT CONVEX R4000``).
+id as etched labels, sheets also the forming instruction (``OUT CONVEX R4000``), ribs and
+stiffeners the way their etched face looks (``IN``: into the panel).
 """
 
 from __future__ import annotations
@@ -144,8 +145,12 @@ def unroll_sheet(part: Part) -> FlatPart:
                     edge_lengths_flat=lengths_flat, edge_lengths_3d=lengths_3d)
 
 
-def flat_plate(part: Part) -> FlatPart:
-    """A rib or stiffener: its outline as given (made counter-clockwise), no strain."""
+def flat_plate(part: Part, face: str = "") -> FlatPart:
+    """A rib or stiffener: its outline as given (made counter-clockwise), no strain.
+
+    ``face`` is etched as a third label line: ``IN`` when the face the drawing shows (the
+    frame's +z side) looks into the part's panel, ``OUT`` when it looks away.
+    """
     if part.outline is None:
         raise GeometryError(f"part {part.id} ({part.kind}) has no flat outline")
     outline = np.asarray(part.outline, dtype=float)
@@ -153,14 +158,34 @@ def flat_plate(part: Part) -> FlatPart:
         outline = outline[:-1]
     if polygon_area(outline) < 0:
         outline = outline[::-1].copy()
-    labels = place_labels(outline, [part.id, part.panel_id])
+    labels = place_labels(outline, [part.id, part.panel_id] + ([face] if face else []))
     return FlatPart(id=part.id, kind=part.kind, panel_id=part.panel_id, material=part.material,
                     thickness=part.thickness, outline=outline, round_holes=tuple(part.holes),
                     labels=labels, max_strain=0.0)
 
 
-def _lay_flat(part: Part) -> FlatPart:
-    return unroll_sheet(part) if part.kind.startswith("sheet") else flat_plate(part)
+def _lay_flat(part: Part, face: str = "") -> FlatPart:
+    return unroll_sheet(part) if part.kind.startswith("sheet") else flat_plate(part, face)
+
+
+def plate_faces(parts: tuple[Part, ...]) -> list[str]:
+    """Per part, which way a plate's drawn face looks: ``IN`` (into its panel: for a rib the
+    other face is the joint face against the neighbour's rib), ``OUT``, or "" for sheets and
+    plates whose panel has no sheet to tell its centre."""
+    centres = {}
+    for part in parts:
+        if part.surface_grid is not None:
+            centres.setdefault(part.panel_id, np.asarray(part.surface_grid).reshape(-1, 3)
+                               .mean(axis=0))
+    faces = []
+    for part in parts:
+        if part.kind.startswith("sheet") or part.frame is None or part.panel_id not in centres:
+            faces.append("")
+            continue
+        frame = np.asarray(part.frame, dtype=float)
+        faces.append("IN" if frame[:3, 2] @ (centres[part.panel_id] - frame[:3, 3]) > 0
+                     else "OUT")
+    return faces
 
 
 def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
@@ -178,9 +203,10 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
     workers = jobs or os.cpu_count() or 1
     if workers > 1 and len(light) > 8:
         with worker_pool(workers) as pool:
-            flats = list(pool.map(_lay_flat, light, chunksize=max(1, len(light) // (4 * workers))))
+            flats = list(pool.map(_lay_flat, light, plate_faces(light),
+                                  chunksize=max(1, len(light) // (4 * workers))))
     else:
-        flats = [_lay_flat(part) for part in light]
+        flats = [_lay_flat(part, face) for part, face in zip(light, plate_faces(light))]
     smallest = job.cutting.min_plasma_hole
     flats = [dataclasses.replace(
         flat, round_holes=tuple(h for h in flat.round_holes
