@@ -46,8 +46,9 @@ SINGLE_CURVED_RATIO = 0.1
 class Bending:
     """How an unrolled sheet is formed.
 
-    form : "flat" | "single" | "double"
-        flat: no rolling; single: rolled along ``lines``; double: not developable, no bend lines.
+    form : "flat" | "single" | "double" | "unknown"
+        flat: no rolling; single: rolled along ``lines``; double: not developable, no bend lines;
+        unknown: the sheet is too degenerate to tell (a sliver), no bend lines.
     lines : (c, 2, 2) float
         bend lines (rulings) in the flat frame, mm.
     radii : (c, 2) float
@@ -70,6 +71,8 @@ class Bending:
             return "OUT FLAT"
         if self.form == "double":
             return "OUT DOUBLE CURVED"
+        if self.form == "unknown":
+            return "OUT"
         low, high = int(round(self.radii[:, 0].min())), int(round(self.radii[:, 1].max()))
         if high - low <= max(0.01 * low, 1):
             radius = f"R{low}"

@@ -17,6 +17,7 @@ from collections import Counter
 
 import numpy as np
 import shapely
+from scipy.spatial import QhullError
 from shapely.geometry import LineString, Polygon
 from shapely.ops import polylabel
 
@@ -26,7 +27,7 @@ from ..geom.flatten import flatten_grid
 from ..geom.polygon import polygon_area
 from ..job import Job
 from ..parallel import worker_pool
-from .bending import bending_of
+from .bending import Bending, bending_of
 from .strokefont import text_width
 
 log = logging.getLogger(__name__)
@@ -133,7 +134,12 @@ def unroll_sheet(part: Part) -> FlatPart:
     outline = grid_outline(uv)
     lengths_flat = polyline_lengths(grid_sides(uv))
     lengths_3d = polyline_lengths(grid_sides(grid))
-    bending = bending_of(grid, uv, outline)
+    try:
+        bending = bending_of(grid, uv, outline)
+    except (QhullError, ValueError, np.linalg.LinAlgError) as err:
+        # a degenerate (sliver) sheet: no bend lines rather than no cutting files
+        log.warning("%s: no bend lines (%s)", part.id, err)
+        bending = Bending("unknown", np.zeros((0, 2, 2)), np.zeros((0, 2)), False)
     labels = place_labels(outline, [part.id, part.panel_id, bending.instruction()], angle=0.0)
     bend_lines = lines_around_labels(bending.lines, labels)
     holes = tuple(dataclasses.replace(h, centre=tuple(grid_point(uv, *h.centre)))
