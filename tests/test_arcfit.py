@@ -77,3 +77,12 @@ def test_open_polyline_keeps_its_ends():
     np.testing.assert_allclose(vertices[[0, -1]], quarter[[0, -1]])
     assert len(vertices) == 2 and bulges[-1] == 0
     np.testing.assert_allclose(bulges[0], np.tan(np.pi / 8), rtol=1e-9)
+
+
+@pytest.mark.parametrize("sides", [12, 16, 20])
+def test_coarse_polygons_on_a_circle_keep_their_corners(sides):
+    t = np.linspace(0, 2 * np.pi, sides, endpoint=False)
+    polygon = np.stack([100 * np.cos(t), 100 * np.sin(t)], axis=1)
+    vertices, bulges = fit_arcs(polygon)
+    np.testing.assert_array_equal(bulges, 0)
+    assert len(vertices) == sides

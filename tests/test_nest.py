@@ -169,3 +169,16 @@ def test_plate_files_hold_the_parts_at_their_spacing(mixed, tmp_path):
         net += part_area_from_dxf(path)
     assert contours == len(flat.parts)
     assert net == pytest.approx(part_area, rel=1e-9)
+
+
+def test_quarter_turns_only_and_parts_as_high_as_the_plate():
+    flat = FlatParts(parts=(flat_part("P001-A", rectangle(800, 300)),
+                            flat_part("P002-B", rectangle(600, 200))))
+    turned = Job.from_dict({**JOB.to_dict(), "cutting": {**JOB.to_dict()["cutting"],
+                                                         "rotations": [90, 270]}})
+    nests = nest(flat, turned)
+    assert validate_nests(nests, flat, turned) == [] and not nests.issues
+    # a part whose grown shape is exactly as high as the usable plate is refused, not crashed
+    tall = FlatParts(parts=(flat_part("P003-C", rectangle(1500, 969.0)),))
+    result = nest(tall, JOB)
+    assert validate_nests(result, tall, JOB) == []

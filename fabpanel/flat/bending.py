@@ -73,6 +73,8 @@ class Bending:
             return "OUT DOUBLE CURVED"
         if self.form == "unknown":
             return "OUT"
+        if not len(self.radii):
+            return f"OUT {'CONVEX' if self.convex else 'CONCAVE'}"
         low, high = int(round(self.radii[:, 0].min())), int(round(self.radii[:, 1].max()))
         if high - low <= max(0.01 * low, 1):
             radius = f"R{low}"

@@ -123,7 +123,10 @@ def _fitting_rotations(shape: np.ndarray, rotations: list[int], length: float,
     fits = []
     for r in rotations:
         w, h = size if r % 180 == 0 else size[::-1]
-        if w <= length + 1e-9 and h <= height + 1e-9:
+        # the same rounding as the box assignment (0.1 mm up, plate down), and strictly inside:
+        # spyrrow fails on a shape exactly as high as its strip
+        if (np.ceil(w * 10) <= np.floor(length * 10) and np.ceil(h * 10) <= np.floor(height * 10)
+                and w < length - 1e-3 and h < height - 1e-3):
             fits.append(int(r))
     return tuple(fits)
 
@@ -139,7 +142,9 @@ def _pack_strip(items: list[_Item], height: float, seconds: int, seed: int
         config = spyrrow.StripPackingConfig(early_termination=True, num_workers=1,
                                             total_computation_time=int(seconds), seed=int(seed))
         solution = instance.solve(config)
-    except (ValueError, RuntimeError) as err:
+    except (KeyboardInterrupt, SystemExit):
+        raise
+    except BaseException as err:      # noqa: BLE001 - spyrrow panics arrive as BaseException
         raise SolverError(f"spyrrow failed to pack {len(items)} parts: {err}") from err
     transforms: list[np.ndarray | None] = [None] * len(items)
     for placed in solution.placed_items:
@@ -190,7 +195,10 @@ def _box_plates(items: list[_Item], length: float, height: float, rotate: bool
     packer = rectpack.newPacker(mode=rectpack.PackingMode.Offline,
                                 bin_algo=rectpack.PackingBin.BFF,
                                 pack_algo=rectpack.MaxRectsBssf, rotation=rotate)
-    boxes = [np.ceil(np.ptp(it.shape, axis=0) * 10).astype(int) for it in items]
+    # each box in the item's first allowed rotation; a turned box is a quarter turn more
+    base = [rotation_matrix(it.rotations[0]) for it in items]
+    boxes = [np.ceil(np.ptp(it.shape @ r.T, axis=0) * 10).astype(int)
+             for it, r in zip(items, base)]
     for index, box_size in enumerate(boxes):
         packer.add_rect(int(box_size[0]), int(box_size[1]), rid=index)
     packer.add_bin(int(length * 10), int(height * 10), count=float("inf"))
@@ -201,7 +209,11 @@ def _box_plates(items: list[_Item], length: float, height: float, rotate: bool
         for rect in plate_bin:
             item = items[rect.rid]
             turned = (rect.width, rect.height) != tuple(boxes[rect.rid])
-            rotation = next(r for r in item.rotations if (r % 180 == 90) == turned)
+            first = item.rotations[0]
+            rotation = next((r for r in item.rotations if ((r - first) % 180 == 90) == turned),
+                            None)
+            if rotation is None:
+                raise SolverError(f"rectpack turned {item.part.id}, which may not turn")
             t = np.eye(3)
             t[:2, :2] = rotation_matrix(rotation)
             t[:2, 2] = np.array([rect.x, rect.y]) / 10 - (item.shape @ t[:2, :2].T).min(axis=0)

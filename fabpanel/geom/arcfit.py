@@ -19,6 +19,9 @@ import numpy as np
 ARC_TOLERANCE = 0.02
 #: an arc covers at least this many polyline segments (three points define any circle)
 MIN_ARC_SEGMENTS = 3
+#: largest turn between consecutive segments inside an arc, radians: a coarser polygon (a 16-gon
+#: turns 22.5 degrees a vertex) keeps its corners even when they lie on a circle
+MAX_ARC_TURN = np.radians(10.0)
 #: largest sweep of one arc, radians (bulge at most tan(pi / 4) = 1: a half circle)
 MAX_SWEEP = np.pi * 0.999
 
@@ -51,6 +54,11 @@ def _arc_bulge(points: np.ndarray, tolerance: float) -> float | None:
         return None
     turns = np.arctan2(rel[:-1, 0] * rel[1:, 1] - rel[:-1, 1] * rel[1:, 0],
                        np.einsum("ij,ij->i", rel[:-1], rel[1:]))
+    chords = np.diff(points, axis=0)
+    bends = np.arctan2(chords[:-1, 0] * chords[1:, 1] - chords[:-1, 1] * chords[1:, 0],
+                       np.einsum("ij,ij->i", chords[:-1], chords[1:]))
+    if len(bends) and np.abs(bends).max() > MAX_ARC_TURN:
+        return None
     if not (np.all(turns > 0) or np.all(turns < 0)):
         return None
     sweep = float(turns.sum())
