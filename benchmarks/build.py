@@ -21,6 +21,9 @@ import fabpanel as fp
 from fabpanel.model import build, write_3dm, write_glb, write_panel_steps, write_step_assembly
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # barrel-vault, shipped
+# example jobs by name: the shipped demo and the shapes in examples/
+JOBS = {p.stem: p for p in sorted([*DEMO.glob("*.toml"), *EXAMPLES.glob("*.toml")])}
 
 
 def _peak_mb() -> tuple[float, float]:
@@ -38,7 +41,7 @@ def main() -> None:
     figures = []
     for run in args.runs.split(","):
         example, size = (part.strip() for part in run.split(":"))
-        job = fp.Job.from_toml(EXAMPLES / f"{example}.toml").replace(
+        job = fp.Job.from_toml(JOBS.get(example, EXAMPLES / f"{example}.toml")).replace(
             panelize={"panel_size": size})
         developed = fp.run(job, until="develop", write=False).developed
         started = time.perf_counter()

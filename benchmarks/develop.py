@@ -4,7 +4,8 @@ baseline (and the plain projection onto the design surface).
     .venv/bin/python benchmarks/develop.py [--methods global,loft,project] [--max-iterations N]
                                           [NAME ...]
 
-Panelises each example job in examples/ (or the names given), then develops it by each method.
+Panelises each example job in examples/ and fabpanel/examples/ (or the names given), then
+develops it by each method.
 Prints one line per run and, last, one JSON object: panels, time, peak memory (resident, MB),
 max/mean unroll strain, the rib measures (sheet edge from its rib plane, mm; largest angle of the
 normals to it and its variation along a side, degrees), max/mean deviation, the largest gap
@@ -25,6 +26,9 @@ from fabpanel.develop import develop
 from fabpanel.surface import SurfaceQuery
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # barrel-vault, shipped
+# example jobs by name: the shipped demo and the shapes in examples/
+JOBS = {p.stem: p for p in sorted([*DEMO.glob("*.toml"), *EXAMPLES.glob("*.toml")])}
 
 
 def main() -> None:
@@ -33,7 +37,7 @@ def main() -> None:
     parser.add_argument("--methods", default="global,loft,project")
     parser.add_argument("--max-iterations", type=int, default=None)
     args = parser.parse_args()
-    jobs = sorted(EXAMPLES.glob("*.toml"))
+    jobs = [JOBS[name] for name in sorted(JOBS)]
     if args.names:
         jobs = [j for j in jobs if j.stem in args.names]
     runs, ratios = [], {}

@@ -24,6 +24,9 @@ import fabpanel as fp
 from fabpanel.flat.nest import bounding_box_plates, nest, validate_nests
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # barrel-vault, shipped
+# example jobs by name: the shipped demo and the shapes in examples/
+JOBS = {p.stem: p for p in sorted([*DEMO.glob("*.toml"), *EXAMPLES.glob("*.toml")])}
 
 
 def main() -> None:
@@ -37,7 +40,7 @@ def main() -> None:
     args = parser.parse_args()
     runs = []
     for name in args.names:
-        job = fp.Job.from_toml(EXAMPLES / f"{name}.toml")
+        job = fp.Job.from_toml(JOBS.get(name, EXAMPLES / f"{name}.toml"))
         if args.develop:
             job = job.replace(develop={"method": args.develop})
         started = time.perf_counter()

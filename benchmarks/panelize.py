@@ -2,8 +2,8 @@
 
     .venv/bin/python benchmarks/panelize.py [--sizes "1.5 m,1.2 m,0.9 m"] [NAME ...]
 
-Runs only the panelize stage for each example job in examples/ (or the names given). Prints one
-line per run and, last, one JSON object with every figure.
+Runs only the panelize stage for each example job in examples/ and fabpanel/examples/ (or the
+names given). Prints one line per run and, last, one JSON object with every figure.
 """
 
 from __future__ import annotations
@@ -18,6 +18,9 @@ from pathlib import Path
 import fabpanel as fp
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # barrel-vault, shipped
+# example jobs by name: the shipped demo and the shapes in examples/
+JOBS = {p.stem: p for p in sorted([*DEMO.glob("*.toml"), *EXAMPLES.glob("*.toml")])}
 
 
 def main() -> None:
@@ -25,7 +28,7 @@ def main() -> None:
     parser.add_argument("names", nargs="*")
     parser.add_argument("--sizes", default="1.5 m,1.2 m,0.9 m")
     args = parser.parse_args()
-    jobs = sorted(EXAMPLES.glob("*.toml"))
+    jobs = [JOBS[name] for name in sorted(JOBS)]
     if args.names:
         jobs = [j for j in jobs if j.stem in args.names]
     runs = []

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import fabpanel as fp
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # barrel-vault, shipped
 
 
 def main() -> None:
@@ -27,7 +27,7 @@ def main() -> None:
     args = parser.parse_args()
     figures = []
     for size in args.sizes.split(","):
-        job = fp.Job.from_toml(EXAMPLES / "barrel-vault.toml").replace(
+        job = fp.Job.from_toml(DEMO / "barrel-vault.toml").replace(
             panelize={"panel_size": size.strip()})
         with tempfile.TemporaryDirectory() as folder:
             started = time.perf_counter()

@@ -26,6 +26,9 @@ import fabpanel as fp
 from fabpanel.structure import analyse, validation
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # barrel-vault, shipped
+# example jobs by name: the shipped demo and the shapes in examples/
+JOBS = {p.stem: p for p in sorted([*DEMO.glob("*.toml"), *EXAMPLES.glob("*.toml")])}
 
 
 def main() -> None:
@@ -41,7 +44,7 @@ def main() -> None:
     args = parser.parse_args()
     runs = []
     for name in args.names:
-        job = fp.Job.from_toml(EXAMPLES / f"{name}.toml")
+        job = fp.Job.from_toml(JOBS.get(name, EXAMPLES / f"{name}.toml"))
         settings = {}
         if args.element_size:
             settings["element_size"] = args.element_size

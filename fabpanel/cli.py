@@ -7,18 +7,24 @@ Exit codes: 0 success, 2 bad input or job (one line on stderr: what, where, how 
 from __future__ import annotations
 
 import logging
+import os
+import signal
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import click
 
-from .errors import FabpanelError, InputError
+from .errors import FabpanelError, InputError, Stopped
 from .job import STAGES, Job
 
-TEMPLATE_DIR = Path(__file__).resolve().parent.parent / "templates"
-EXAMPLE_DIR = Path(__file__).resolve().parent.parent / "examples"
+TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"     # package data: fabpanel init
+EXAMPLE_DIR = Path(__file__).resolve().parent / "examples"       # package data: fabpanel demo
 JOB_SUFFIXES = {".toml"}
+#: exit code of a run that finished but left error-level issues (without --allow-issues)
+EXIT_ISSUES = 3
 
 
 class _Reporter:
@@ -61,6 +67,15 @@ class _Reporter:
 
 
 def _fail(err: BaseException, debug: bool) -> None:
+    if isinstance(err, KeyboardInterrupt):
+        signum = getattr(err, "signum", signal.SIGINT)
+        click.echo(f"stopped by {signal.Signals(signum).name}: queued work cancelled, workers "
+                   f"stopped, nothing written", err=True)
+        # the run has cleaned up (workers, staging folder); skip the interpreter's teardown,
+        # which spends seconds collecting the run's geometry
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(128 + signum)
     if debug:
         raise err
     if isinstance(err, FabpanelError):
@@ -71,13 +86,36 @@ def _fail(err: BaseException, debug: bool) -> None:
     sys.exit(1)
 
 
+@contextmanager
+def _stop_on_signals() -> Iterator[None]:
+    """SIGINT and SIGTERM raise :class:`Stopped` in the main thread, so the run unwinds:
+    workers terminated, the staging folder removed (see :mod:`fabpanel.parallel`)."""
+
+    def stop(signum: int, frame: object) -> None:
+        raise Stopped(signum)
+
+    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def _quiet_logging(debug: bool) -> None:
+    """Library log lines reach stderr only with --debug: findings are issues, errors one line."""
+    logging.basicConfig(level=logging.INFO if debug else logging.CRITICAL + 1,
+                        format="%(levelname)s %(name)s: %(message)s", force=True)
+    logging.captureWarnings(True)
+
+
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="fabpanel")
 def main() -> None:
     """fabpanel: free-form steel shells to panels, STEP solids, DXF cutting files and nests."""
 
 
-def _job_for(source: Path, units: str | None, panel_size: str | None) -> Job:
+def _job_for(source: Path, units: str | None, panel_size: str | None, quiet: bool) -> Job:
     if source.suffix.lower() in JOB_SUFFIXES:
         job = Job.from_toml(source)
         if units is not None:
@@ -87,20 +125,23 @@ def _job_for(source: Path, units: str | None, panel_size: str | None) -> Job:
             raise InputError(f"input file {source} does not exist; check the path")
         job = Job.for_input(source, units=units)
     if panel_size is not None:
-        job = job.replace(panelize={"panel_size": panel_size})
+        from .units import length_option
+
+        quantity, note = length_option(panel_size, job.input.units, "--panel-size")
+        if note and not quiet:
+            click.echo(f"note: {note}", err=True)
+        job = job.replace(panelize={"panel_size": quantity})
     return job
 
 
 def export_run(source: Path, out: Path | None, units: str | None, panel_size: str | None,
                until: str, jobs: int | None, force: bool, quiet: bool,
-               require_fem: bool = False):
+               require_fem: bool = False, allow_issues: bool = False, debug: bool = False):
+    """The ``export`` command: run, report, and exit 3 when error-level issues remain."""
     from .pipeline import run
 
-    logging.basicConfig(level=logging.WARNING if quiet else logging.INFO,
-                        format="%(levelname)s %(name)s: %(message)s")
-    # findings reach the user as issues in the summary; log lines would break the one-line errors
-    logging.getLogger().setLevel(logging.ERROR)
-    job = _job_for(source, units, panel_size)
+    _quiet_logging(debug)
+    job = _job_for(source, units, panel_size, quiet)
     if require_fem:
         job = job.replace(structure={"required": True})
     reporter = _Reporter(quiet)
@@ -108,23 +149,33 @@ def export_run(source: Path, out: Path | None, units: str | None, panel_size: st
         result = run(job, out_dir=out, until=until, jobs=jobs, force=force, progress=reporter)
     finally:
         reporter.close()
+    errors = [i for i in result.issues if i.severity == "error"]
     if not quiet:
-        summary = result.summary
-        parts = summary.get("parts", {})
-        click.echo(f"wrote {result.out_dir}", err=True)
-        if parts:
-            click.echo(f"  {summary['panels']['count']} panels, {parts['count']} parts, "
-                       f"{parts['mass_kg']} kg", err=True)
-        if "nests" in summary:
-            click.echo(f"  {summary['nests']['plates']} plates", err=True)
-        if "structure" in result.stages_run:
-            from .structure import describe
-
-            click.echo(f"  structure: {describe(result.structure)}", err=True)
-        errors = [i for i in result.issues if i.severity == "error"]
-        for issue in errors[:10]:
-            click.echo(f"  issue: {issue.message}", err=True)
+        _print_summary(result)
+    for issue in errors[:10]:
+        click.echo(f"  issue: {issue.item + ': ' if issue.item else ''}{issue.message}", err=True)
+    if errors and not allow_issues:
+        more = f" ({len(errors) - 10} more)" if len(errors) > 10 else ""
+        click.echo(f"error: finished with {len(errors)} error-level issue(s){more}, written to "
+                   f"{result.out_dir}/manifest.json; fix them or pass --allow-issues to accept "
+                   f"them (exit 3)", err=True)
+        sys.exit(EXIT_ISSUES)
     return result
+
+
+def _print_summary(result) -> None:
+    summary = result.summary
+    parts = summary.get("parts", {})
+    click.echo(f"wrote {result.out_dir}", err=True)
+    if parts:
+        click.echo(f"  {summary['panels']['count']} panels, {parts['count']} parts, "
+                   f"{parts['mass_kg']} kg", err=True)
+    if "nests" in summary:
+        click.echo(f"  {summary['nests']['plates']} plates", err=True)
+    if "structure" in result.stages_run and result.structure is not None:
+        from .structure import describe
+
+        click.echo(f"  structure: {describe(result.structure)}", err=True)
 
 
 _export_options = [
@@ -142,8 +193,10 @@ _export_options = [
     click.option("--require-fem", "require_fem", is_flag=True,
                  help="Fail (exit 2) when CalculiX is missing instead of skipping the "
                       "structural check."),
+    click.option("--allow-issues", "allow_issues", is_flag=True,
+                 help="Exit 0 even when error-level issues remain (default: exit 3)."),
     click.option("--quiet", is_flag=True, help="Print nothing but errors."),
-    click.option("--debug", is_flag=True, help="Show tracebacks."),
+    click.option("--debug", is_flag=True, help="Show tracebacks and library log lines."),
 ]
 
 
@@ -156,11 +209,14 @@ def _with_export_options(func):
 @main.command()
 @click.argument("source", type=click.Path(path_type=Path))
 @_with_export_options
-def export(source, out, units, panel_size, until, jobs, force, require_fem, quiet, debug):
+def export(source, out, units, panel_size, until, jobs, force, require_fem, allow_issues, quiet,
+           debug):
     """Run the pipeline on INPUT (a surface file) or JOB.toml and write the output folder."""
     try:
-        export_run(source, out, units, panel_size, until, jobs, force, quiet, require_fem)
-    except Exception as err:  # noqa: BLE001 - the CLI turns every error into an exit code
+        with _stop_on_signals():
+            export_run(source, out, units, panel_size, until, jobs, force, quiet, require_fem,
+                       allow_issues, debug)
+    except (Exception, KeyboardInterrupt) as err:  # noqa: BLE001 - every error is an exit code
         _fail(err, debug)
 
 
@@ -222,18 +278,21 @@ def inspect(source, units, as_json, debug):
 @click.option("--quiet", is_flag=True)
 @click.option("--debug", is_flag=True)
 def demo(folder, force, jobs, quiet, debug):
-    """Run the barrel-vault example (examples/barrel-vault.toml) into FOLDER."""
+    """Run the barrel-vault example shipped with fabpanel; write the outputs into FOLDER
+    (default: fabpanel-demo in the current folder)."""
     try:
+        # job and STEP are package data (fabpanel/examples); outputs go to FOLDER only
         job_path = EXAMPLE_DIR / "barrel-vault.toml"
         if not (EXAMPLE_DIR / "barrel-vault.step").is_file():
-            sys.path.insert(0, str(EXAMPLE_DIR))
-            from barrel_vault import write_barrel_vault
-
-            write_barrel_vault(EXAMPLE_DIR / "barrel-vault.step")
-        export_run(job_path, folder, None, None, "structure", jobs, force, quiet)
+            raise InputError(f"the demo surface {EXAMPLE_DIR / 'barrel-vault.step'} is missing; "
+                             "reinstall fabpanel (in a checkout: python -m "
+                             "fabpanel.examples.barrel_vault)")
+        with _stop_on_signals():
+            export_run(job_path, folder, None, None, "structure", jobs, force, quiet,
+                       debug=debug)
         if not quiet:
             click.echo(f"open {folder / 'report' / 'index.html'}", err=True)
-    except Exception as err:  # noqa: BLE001
+    except (Exception, KeyboardInterrupt) as err:  # noqa: BLE001
         _fail(err, debug)
 
 

@@ -46,6 +46,18 @@ class SolverError(FabpanelError, RuntimeError):
     """A numerical solver or an external engine (CalculiX, spyrrow) failed."""
 
 
+class Stopped(KeyboardInterrupt):
+    """The run was stopped by a signal (SIGINT or SIGTERM).
+
+    A :class:`KeyboardInterrupt`, so everything that lets Ctrl-C through lets it through and
+    every ``finally`` and cleanup runs; the CLI exits ``128 + signum`` (130, 143).
+    """
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
 Severity = Literal["info", "warning", "error"]
 
 

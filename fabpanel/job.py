@@ -2,8 +2,14 @@
 
 Lengths carry their unit in the file (``"3 mm"``, ``"1.2 m"``); pressures, stresses, densities and
 times too. Validation turns every problem into one :class:`~fabpanel.errors.InputError` line that
-names the key and what is allowed. Internally all values are in millimetres, N/mm2 (MPa), kg/mm3
-and seconds (see :mod:`fabpanel.units`).
+names the key, quotes the value as written and says what is allowed. Internally all values are in
+millimetres, N/mm2 (MPa), kg/mm3 and seconds (see :mod:`fabpanel.units`).
+
+Besides types and ranges, the job is refused when it cannot be built: numbers that are not finite
+(nan, inf, ``"1e308 m"``), a wind direction without a horizontal component, and a sandwich whose
+plates, ribs and bolts do not fit together or onto the stock plate. The bolt rules are the minima
+of EN 1993-1-8:2005 Table 3.3 (the job's bolt ``diameter`` is the hole diameter d0: ``"13 mm"``
+for M12); the others are fabpanel's own, each explained where it is defined.
 """
 
 from __future__ import annotations
@@ -11,25 +17,33 @@ from __future__ import annotations
 import math
 import tomllib
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, ClassVar, Literal, get_args
 
 from pydantic import (
     BaseModel,
     BeforeValidator,
     ConfigDict,
     Field,
+    ModelWrapValidatorHandler,
     PlainSerializer,
     ValidationError,
+    ValidationInfo,
+    field_validator,
     model_validator,
 )
 
 from .errors import InputError
-from .units import format_quantity, parse_quantity
+from .units import as_written, format_like, format_number, format_quantity, parse_quantity
 
 
-def _quantity(dimension: str):
+def _quantity(dimension: str) -> list[Any]:
     return [BeforeValidator(lambda value: parse_quantity(value, dimension)),
             PlainSerializer(lambda value: format_quantity(value, dimension), return_type=str)]
+
+
+def _default(text: str, dimension: str = "length") -> float:
+    """A default written as in a job file, kept in internal units: ``"1200 mm"`` is 1200.0."""
+    return parse_quantity(text, dimension)
 
 
 Length = Annotated[float, *_quantity("length")]
@@ -45,28 +59,171 @@ Stage = Literal["panelize", "develop", "build", "cut", "structure"]
 STAGES: tuple[Stage, ...] = ("panelize", "develop", "build", "cut", "structure")
 
 
+#: EN 1993-1-8:2005 Table 3.3: end and edge distances e1, e2 >= 1.2 d0 (d0: the hole diameter,
+#: the job's bolt ``diameter``)
+MIN_EDGE_DISTANCE = 1.2
+#: EN 1993-1-8 Table 3.3: bolt spacing p1 >= 2.2 d0 along the force, p2 >= 2.4 d0 across it. The
+#: bolts of a rib joint stand in one row and carry shear along the rib (the shell's membrane
+#: shear) and across it in the rib's plane (its transverse shear): their spacing is p1 and p2 at
+#: once, so the larger minimum
+MIN_BOLT_SPACING = 2.4
+#: holes larger than this many rib thicknesses are refused (fabpanel's rule): the rib's bearing
+#: resistance (EN 1993-1-8 Table 3.4, at most 2.5 fu d t; S235 fu = 360 MPa) is then under half
+#: the shear resistance of the bolt (grade 8.8, one shear plane, 0.6 fub As with As ~ 0.78 pi
+#: d^2 / 4): the bolt is oversized for the plates it clamps, or a unit slipped
+MAX_HOLE_PER_RIB_THICKNESS = 6.0
+#: sheets, ribs and stiffeners at most this fraction of the rib height (fabpanel's rule): the
+#: ribs are the core of the sandwich and hold the bolts between the sheets; a plate as thick as
+#: half the core is no sandwich panel (typically a unit slip: "500 mm" for "5 mm")
+MAX_PLATE_PER_RIB_HEIGHT = 0.5
+#: access openings at least this many hole diameters (fabpanel's rule): a socket must reach the
+#: nut through it. The nut is about 1.4 d0 across flats (ISO 4032: 18 mm for M12 in a 13 mm
+#: hole) and a socket's wall adds about 3 mm each side: about 2 d0
+MIN_ACCESS_PER_HOLE = 2.0
+#: corners opening up to this angle get a stiffener (degrees, as
+#: ``fabpanel.model.panel.MAX_STIFFENED_ANGLE``): a stiffener's chord is at most
+#: 2 sin(75 deg) x stiffener_offset long
+STIFFENED_ANGLE = 150.0
+#: a wind direction shorter than this (in x and y) has no direction
+MIN_WIND_DIRECTION = 1e-9
+
+_MISSING = object()
+
+
+class _RuleError(ValueError):
+    """A rule across keys is broken. ``key`` (dotted, relative to the section that checks it) is
+    named first; the message quotes the values as written and says how to fix them."""
+
+    def __init__(self, key: str, message: str):
+        super().__init__(message)
+        self.key = key
+
+
+class _Written:
+    """The values of a section as the user wrote them, for messages: ``w("rib_height")`` is
+    ``'"5 m"'``; a key left out shows its default, ``150 mm (the default)``. ``table`` is the
+    section's TOML table (``"sandwich"``; ``""`` for the whole job)."""
+
+    def __init__(self, data: Any, model: BaseModel, table: str):
+        self.data, self.table = data, table
+        self.dumped = model.model_dump(mode="json")
+
+    def raw(self, key: str) -> Any:
+        raw: Any = self.data
+        for part in key.split("."):
+            raw = raw.get(part, _MISSING) if isinstance(raw, dict) else _MISSING
+        return raw
+
+    def given(self, key: str) -> bool:
+        return self.raw(key) is not _MISSING
+
+    def __call__(self, key: str) -> str:
+        raw = self.raw(key)
+        if raw is not _MISSING:
+            return as_written(raw)
+        value: Any = self.dumped
+        for part in key.split("."):
+            value = value.get(part) if isinstance(value, dict) else None
+        shown = value if isinstance(value, str) else as_written(value)
+        return f"{shown} (the default)" if isinstance(self.data, dict) else shown
+
+    def label(self, key: str) -> str:
+        """The key as a user finds it in the file: ``[sandwich.bolts] diameter``."""
+        return _key_name([*filter(None, self.table.split(".")), *key.split(".")])
+
+    def like(self, key: str, value: float) -> str:
+        """A length in mm, in the unit the user wrote ``key`` in (``"0.15 m"``), else in mm."""
+        raw = self.raw(key)
+        written = format_like(value, raw) if raw is not _MISSING else None
+        return written or f"{format_number(value)} mm"
+
+    def conflict(self, key: str, other: str, rule: str, fix: str) -> _RuleError:
+        """The error of a rule between two keys; it names ``key`` first unless only ``other``
+        was written (then the user's value is the one to look at)."""
+        if self.given(other) and not self.given(key):
+            key, other = other, key
+        return _RuleError(key, f"{self(key)} against {self.label(other)} {self(other)}: "
+                               f"{rule}; {fix}")
+
+
+def _numeric(annotation: Any) -> bool:
+    """Whether a field holds numbers: ``float``, ``int | None``, ``tuple[float, float]``..."""
+    if annotation in (float, int):
+        return True
+    return any(_numeric(arg) for arg in get_args(annotation))
+
+
 class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    # defaults are given in internal units (``_default("1200 mm")``), so they are not read
+    # again as job text (a bare number is refused there); every float must be finite, in
+    # tuples and lists too
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    #: the section's TOML table, for messages
+    _table: ClassVar[str] = ""
+
+    @classmethod
+    def __pydantic_init_subclass__(cls, **kwargs: Any) -> None:
+        super().__pydantic_init_subclass__(**kwargs)
+        # defaults are not validated: a quantity default written as text would stay text
+        for name, field in cls.model_fields.items():
+            if isinstance(field.default, str) and any(
+                    isinstance(meta, BeforeValidator) for meta in field.metadata):
+                raise TypeError(f"{cls.__name__}.{name}: write the default as "
+                                f"_default({field.default!r}, ...), in internal units")
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _no_yes_no_numbers(cls, value: Any, info: ValidationInfo) -> Any:
+        # pydantic reads TOML true/false as 1/0 where a number is expected (quantities are
+        # refused by parse_quantity, with their unit in the message)
+        field = cls.model_fields.get(info.field_name or "")
+        if field is None or not _numeric(field.annotation) or any(
+                isinstance(meta, BeforeValidator) for meta in field.metadata):
+            return value
+        if isinstance(value, bool) or (isinstance(value, (list, tuple))
+                                       and any(isinstance(item, bool) for item in value)):
+            raise ValueError(f"{as_written(value)} holds a yes/no value (true/false); write "
+                             "a number here")
+        return value
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _rules(cls, data: Any, handler: ModelWrapValidatorHandler[Any]) -> Any:
+        section = handler(data)
+        section._check(_Written(data, section, cls._table))
+        return section
+
+    def _check(self, w: _Written) -> None:
+        """Rules across the section's keys: raise :class:`_RuleError` (none by default)."""
 
 
 class InputSection(_Section):
     """[input]: the design surface."""
+
+    _table = "input"
 
     #: path of the design surface, relative to the job file
     path: str | None = None
     #: length unit of the input coordinates. Meshes do not carry units: required for them.
     #: STEP/IGES/BREP are converted by OCCT from the units in their header; this overrides nothing.
     units: Literal["m", "cm", "mm"] | None = None
+    #: neighbouring triangles of the (welded) surface mesh whose normals differ by more than
+    #: this are a crease and the input is refused (degrees). 45 is twice the sharpest fold of the
+    #: examples (20 degrees, pavilion.obj at its supports) and stops a right-angled fold; the
+    #: same value as fabpanel.surface.checks.CREASE_ANGLE
+    crease_angle: float = Field(default=45.0, gt=0, le=180)
 
 
 class PanelizeSection(_Section):
     """[panelize]: how the surface is covered with quad panels."""
 
+    _table = "panelize"
+
     #: ``auto``: ``grid`` for four-sided surfaces without openings, ``skeleton`` otherwise;
     #: ``layout``: the quad mesh in ``layout`` is used as the panel layout
     method: Literal["auto", "grid", "skeleton", "layout"] = "auto"
     #: target panel edge length (panels are made as close to it as the layout allows)
-    panel_size: PositiveLength = "1200 mm"
+    panel_size: PositiveLength = _default("1200 mm")
     #: explicit panel counts along the grid's two directions (override ``panel_size``)
     grid_u: int | None = Field(default=None, ge=1, le=1000)
     grid_v: int | None = Field(default=None, ge=1, le=1000)
@@ -82,16 +239,25 @@ class PanelizeSection(_Section):
     #: skeleton: points (x, y, z in the input's units) that must become layout vertices,
     #: e.g. columns
     singular_points: list[tuple[float, float, float]] = Field(default_factory=list)
+    #: refuse a job whose surface area asks for more panels than this (area / panel_size²),
+    #: before any layout work: usually a unit mistake (a mesh in mm declared in m)
+    max_panels: int = Field(default=5000, ge=1, le=1_000_000)
 
-    @model_validator(mode="after")
-    def _layout_has_a_file(self) -> PanelizeSection:
+    def _check(self, w: _Written) -> None:
         if self.method == "layout" and not self.layout:
-            raise ValueError('method "layout" needs the quad mesh: set layout = "my-layout.obj"')
-        return self
+            raise _RuleError("layout", 'method "layout" needs the quad mesh: set layout = '
+                             '"my-layout.obj"')
+
+    @property
+    def sizes_panels(self) -> bool:
+        """Whether ``panel_size`` sets the panel sides in at least one direction."""
+        return self.method != "layout" and (self.grid_u is None or self.grid_v is None)
 
 
 class DevelopSection(_Section):
     """[develop]: how panel surfaces are made developable."""
+
+    _table = "develop"
 
     #: ``global`` (default): one optimisation moves all panels at once to developable panels with
     #: planar rib edges, staying close to the design surface (Gavriil et al. 2019 Gauss-image
@@ -122,29 +288,41 @@ class DevelopSection(_Section):
 class BoltSection(_Section):
     """[sandwich.bolts]: bolted joints between back-to-back ribs."""
 
-    diameter: PositiveLength = "13 mm"
-    spacing: PositiveLength = "250 mm"
-    edge_distance: PositiveLength = "60 mm"
+    _table = "sandwich.bolts"
+
+    #: bolt hole diameter d0 ("13 mm" takes an M12 bolt); the sandwich needs a rib_height of
+    #: at least 2.4 d0 and a rib_thickness of at least d0 / 6
+    diameter: PositiveLength = _default("13 mm")
+    #: largest distance between the bolts of a rib, at least 2.4 d0 (EN 1993-1-8 Table 3.3).
+    #: The bolts are spread evenly, so the real pitch can be down to about half of it
+    spacing: PositiveLength = _default("250 mm")
+    #: from the corner to the first bolt, at least 1.2 d0 (EN 1993-1-8 Table 3.3)
+    edge_distance: PositiveLength = _default("60 mm")
     #: sheet with openings to reach the bolts
     access_sheet: Literal["bottom", "top", "none"] = "bottom"
-    access_diameter: PositiveLength = "40 mm"
+    #: at least 2 d0: a socket on the nut must pass
+    access_diameter: PositiveLength = _default("40 mm")
 
 
 class SandwichSection(_Section):
     """[sandwich]: the build-up of each panel."""
 
+    _table = "sandwich"
+
     #: ``sandwich``: top and bottom sheet with ribs between; ``cladding``: one sheet, no ribs
     buildup: Literal["sandwich", "cladding"] = "sandwich"
     #: which face of the build-up lies on the design surface
     design_face: Literal["top-outer", "bottom-outer", "middle"] = "top-outer"
-    sheet_thickness: PositiveLength = "3 mm"
+    #: sandwich: the sheets, ribs and stiffeners each at most half the rib height
+    sheet_thickness: PositiveLength = _default("3 mm")
     #: bottom sheet thickness (default: same as the top sheet)
     bottom_sheet_thickness: PositiveLength | None = None
-    #: clear height of the ribs between the two sheets
-    rib_height: PositiveLength = "150 mm"
-    rib_thickness: PositiveLength = "8 mm"
-    #: distance along both edges from a corner to the corner stiffener
-    stiffener_offset: PositiveLength = "150 mm"
+    #: clear height of the ribs between the two sheets; at most the plate's usable width
+    rib_height: PositiveLength = _default("150 mm")
+    rib_thickness: PositiveLength = _default("8 mm")
+    #: distance along both edges from a corner to the corner stiffener: more than twice the
+    #: rib thickness, less than the panel size
+    stiffener_offset: PositiveLength = _default("150 mm")
     stiffener_thickness: PositiveLength | None = None
     bolts: BoltSection = BoltSection()
 
@@ -159,32 +337,92 @@ class SandwichSection(_Section):
             return self.sheet_thickness
         return self.sheet_thickness + self.rib_height + self.bottom_thickness
 
+    def _check(self, w: _Written) -> None:
+        if self.buildup != "sandwich":
+            return  # cladding: one sheet, no ribs, no bolts
+        h, t_rib, bolts = self.rib_height, self.rib_thickness, self.bolts
+        d0 = bolts.diameter
+        plates = [("sheet_thickness", self.sheet_thickness, "sheets"),
+                  ("bottom_sheet_thickness", self.bottom_sheet_thickness, "sheets"),
+                  ("rib_thickness", t_rib, "ribs"),
+                  ("stiffener_thickness", self.stiffener_thickness, "stiffeners")]
+        for key, t, what in plates:
+            if t is not None and t > MAX_PLATE_PER_RIB_HEIGHT * h:
+                raise w.conflict(key, "rib_height", (
+                    f"{what} are at most half the rib height (the ribs are the sandwich's core "
+                    "and hold the bolts between the sheets)"), (
+                    f"use {what} of at most {w.like('rib_height', MAX_PLATE_PER_RIB_HEIGHT * h)}"
+                    f" or a rib_height of at least {w.like(key, t / MAX_PLATE_PER_RIB_HEIGHT)}"))
+        if h < 2 * MIN_EDGE_DISTANCE * d0:
+            raise w.conflict("bolts.diameter", "rib_height", (
+                "a bolt hole sits at mid-height of the rib and needs 1.2 x its diameter to both "
+                "sheets (EN 1993-1-8 Table 3.3, e2 >= 1.2 d0): a rib height of at least 2.4 d0"),
+                (f"use holes of at most {w.like('bolts.diameter', h / 2 / MIN_EDGE_DISTANCE)} "
+                 f"or a rib_height of at least {w.like('rib_height', 2 * MIN_EDGE_DISTANCE * d0)}"))
+        if d0 > MAX_HOLE_PER_RIB_THICKNESS * t_rib:
+            raise w.conflict("bolts.diameter", "rib_thickness", (
+                f"a hole larger than {MAX_HOLE_PER_RIB_THICKNESS:g} x the rib thickness is "
+                "refused: the rib's bearing resistance is then under half the bolt's shear "
+                "resistance, the bolt is oversized for the plates it clamps"), (
+                f"use holes of at most "
+                f"{w.like('bolts.diameter', MAX_HOLE_PER_RIB_THICKNESS * t_rib)} or ribs of "
+                f"at least {w.like('rib_thickness', d0 / MAX_HOLE_PER_RIB_THICKNESS)}"))
+        for key, factor, rule in (
+                ("bolts.edge_distance", MIN_EDGE_DISTANCE, "e1, e2 >= 1.2 d0"),
+                ("bolts.spacing", MIN_BOLT_SPACING, ("p1 >= 2.2 d0 along the rib, p2 >= 2.4 "
+                                                     "d0 across it; a rib joint has both"))):
+            value = getattr(bolts, key.split(".")[1])
+            if value < factor * d0:
+                raise w.conflict(key, "bolts.diameter", (
+                    f"EN 1993-1-8 Table 3.3 asks for at least {factor:g} x the hole diameter "
+                    f"({rule})"), (
+                    f"use at least {w.like(key, factor * d0)} or holes of at most "
+                    f"{w.like('bolts.diameter', value / factor)}"))
+        if bolts.access_sheet != "none" and bolts.access_diameter < MIN_ACCESS_PER_HOLE * d0:
+            raise w.conflict("bolts.access_diameter", "bolts.diameter", (
+                f"a socket on the nut must pass the access opening: at least "
+                f"{MIN_ACCESS_PER_HOLE:g} x the hole diameter"), (
+                f"use access openings of at least "
+                f"{w.like('bolts.access_diameter', MIN_ACCESS_PER_HOLE * d0)}, smaller bolts, "
+                'or access_sheet = "none" if the bolts are reached otherwise'))
+        if self.stiffener_offset <= 2 * t_rib:
+            raise w.conflict("stiffener_offset", "rib_thickness", (
+                "a corner stiffener runs between the two ribs' inner faces, which leave it "
+                "nothing at a right-angled corner unless the offset is more than twice the rib "
+                "thickness"), (
+                f"use a stiffener_offset of more than {w.like('stiffener_offset', 2 * t_rib)} "
+                "(typically about the rib height)"))
+
 
 class MaterialSection(_Section):
     """[material]: steel grade (S235 by default)."""
 
+    _table = "material"
+
     name: str = "S235"
-    E: Stress = "210 GPa"
+    E: Stress = _default("210 GPa", "stress")
     nu: float = Field(default=0.3, gt=0, lt=0.5)
-    density: Density = "7850 kg/m3"
-    fy: Stress = "235 MPa"
+    density: Density = _default("7850 kg/m3", "density")
+    fy: Stress = _default("235 MPa", "stress")
 
 
 class CuttingSection(_Section):
     """[cutting]: stock plates and the plasma table."""
 
-    plate_length: PositiveLength = "3000 mm"
-    plate_width: PositiveLength = "1500 mm"
+    _table = "cutting"
+
+    plate_length: PositiveLength = _default("3000 mm")
+    plate_width: PositiveLength = _default("1500 mm")
     #: plasma kerf (the CAM compensates it; used here to check the spacing)
-    kerf: NonNegativeLength = "2 mm"
+    kerf: NonNegativeLength = _default("2 mm")
     #: clear distance between parts on a plate (at least the kerf plus a margin)
-    part_spacing: NonNegativeLength = "10 mm"
+    part_spacing: NonNegativeLength = _default("10 mm")
     #: clear border along the plate edges
-    plate_margin: NonNegativeLength = "10 mm"
+    plate_margin: NonNegativeLength = _default("10 mm")
     #: time budget for improving the nest of each material/thickness group. "0 s" (default) keeps
     #: spyrrow's constructive solution, which is reproducible bit for bit; a budget gives denser
     #: nests, but spyrrow stops on the wall clock, so the result can vary with machine load
-    nest_time: Duration = "0 s"
+    nest_time: Duration = _default("0 s", "time")
     #: allowed part rotations on the plate, degrees
     rotations: list[Literal[0, 90, 180, 270]] = Field(default=[0, 90, 180, 270], min_length=1)
     #: round holes smaller than this many plate thicknesses are drilled, not cut: plasma cuts
@@ -195,21 +433,39 @@ class CuttingSection(_Section):
     neutral_fibre: Literal["mid", "outer", "inner"] = "mid"
     seed: int = Field(default=0, ge=0)
 
-    @model_validator(mode="after")
-    def _spacing_covers_kerf(self) -> CuttingSection:
+    @property
+    def usable(self) -> tuple[float, float]:
+        """(long, short) sides of the plate inside its margins, mm."""
+        sides = sorted((self.plate_length, self.plate_width), reverse=True)
+        return sides[0] - 2 * self.plate_margin, sides[1] - 2 * self.plate_margin
+
+    @property
+    def side_keys(self) -> tuple[str, str]:
+        """The keys of the plate's (long, short) sides."""
+        if self.plate_width <= self.plate_length:
+            return "plate_length", "plate_width"
+        return "plate_width", "plate_length"
+
+    def _check(self, w: _Written) -> None:
         if self.part_spacing < self.kerf:
-            raise ValueError(f"part_spacing ({self.part_spacing:g} mm) must be at least the kerf "
-                             f"({self.kerf:g} mm)")
-        return self
+            raise w.conflict("part_spacing", "kerf", "the part spacing must be at least the kerf",
+                             f"use a part_spacing of at least {w.like('part_spacing', self.kerf)}")
+        if self.usable[1] <= 0:
+            raise w.conflict("plate_margin", self.side_keys[1], (
+                "the margins along both edges leave nothing of the plate"), (
+                "use a plate_margin of less than "
+                f"{w.like('plate_margin', min(self.plate_length, self.plate_width) / 2)}"))
 
 
 class LoadsSection(_Section):
     """[loads]: actions and checks for the structural summary."""
 
-    snow: Pressure = "0.56 kN/m2"
-    wind: Pressure = "0.8 kN/m2"
-    #: horizontal wind direction (x, y); both signs are checked (pressure and suction on the
-    #: faces the wind meets first, as the thesis)
+    _table = "loads"
+
+    snow: Pressure = _default("0.56 kN/m2", "pressure")
+    wind: Pressure = _default("0.8 kN/m2", "pressure")
+    #: horizontal wind direction (x, y), any length but not (0, 0); both signs are checked
+    #: (pressure and suction on the faces the wind meets first, as the thesis)
     wind_direction: tuple[float, float] = (1.0, 0.0)
     #: also the wind blowing against ``wind_direction`` (other faces; one more static case,
     #: about a quarter more CalculiX time)
@@ -221,9 +477,17 @@ class LoadsSection(_Section):
     #: deflection limit as span / N
     deflection_limit: float = Field(default=300.0, gt=0)
 
+    def _check(self, w: _Written) -> None:
+        if math.hypot(*self.wind_direction) < MIN_WIND_DIRECTION:
+            raise _RuleError("wind_direction", (
+                f"{w('wind_direction')} has no horizontal direction; give the wind's direction "
+                "in plan as [x, y], e.g. [1.0, 0.0] for wind along +x"))
+
 
 class StructureSection(_Section):
     """[structure]: the shell model and the CalculiX run of the structural check."""
+
+    _table = "structure"
 
     #: element length along the panel sides (every side gets ceil(median side / size)
     #: elements); default: as fine as ``max_elements`` allows, at most 4 per side
@@ -235,7 +499,7 @@ class StructureSection(_Section):
     #: ``lowest``: nodes within ``support_band`` of the lowest one (the thesis); ``boundary``:
     #: every boundary rib; ``openings``: the ribs around the openings (support rims)
     supports: Literal["lowest", "boundary", "openings"] = "lowest"
-    support_band: NonNegativeLength = "10 mm"
+    support_band: NonNegativeLength = _default("10 mm")
     #: span for the deflection limit (default: twice the largest plan distance to a support)
     span: PositiveLength | None = None
     #: buckling factors requested from CalculiX (the positive ones are kept; >= 5 are reported)
@@ -243,7 +507,7 @@ class StructureSection(_Section):
     #: CalculiX threads (default: the --jobs count, else all cores)
     threads: int | None = Field(default=None, ge=1, le=256)
     #: stop a CalculiX run after this long
-    timeout: Duration = "30 min"
+    timeout: Duration = _default("30 min", "time")
     #: without CalculiX the export still completes and the summary says "not analysed";
     #: true (or ``--require-fem``) makes that an error
     required: bool = False
@@ -251,6 +515,8 @@ class StructureSection(_Section):
 
 class OutputSection(_Section):
     """[output]: where and what to write."""
+
+    _table = "output"
 
     #: output folder, relative to the job file (default: ``<input name>-fabpanel`` beside it)
     dir: str | None = None
@@ -272,6 +538,37 @@ class _JobModel(_Section):
     loads: LoadsSection = LoadsSection()
     structure: StructureSection = StructureSection()
     output: OutputSection = OutputSection()
+
+    def _check(self, w: _Written) -> None:
+        sandwich, cutting = self.sandwich, self.cutting
+        if sandwich.buildup != "sandwich":
+            return
+        long_side, short_side = cutting.usable
+        long_key, short_key = (f"cutting.{key}" for key in cutting.side_keys)
+        # ribs and stiffeners stand between the sheets: a plate part rib_height high (more
+        # where the rib plane leans against the panel normal; the nest finds that), its length
+        # along the panel side
+        if sandwich.rib_height > short_side:
+            raise w.conflict("sandwich.rib_height", short_key, (
+                f"ribs and stiffeners are cut rib_height high, the plate holds "
+                f"{format_number(short_side)} mm across inside its margins "
+                f"({w.label('cutting.plate_margin')} {w('cutting.plate_margin')} each side)"), (
+                f"use a rib_height of at most {w.like('sandwich.rib_height', short_side)} or "
+                "wider plates"))
+        chord = 2 * math.sin(math.radians(STIFFENED_ANGLE / 2)) * sandwich.stiffener_offset
+        if chord > long_side:
+            raise w.conflict("sandwich.stiffener_offset", long_key, (
+                f"a corner stiffener is up to {format_number(chord)} mm long (2 sin 75 deg x "
+                f"the offset, corners up to {STIFFENED_ANGLE:g} deg), the plate holds "
+                f"{format_number(long_side)} mm inside its margins"), (
+                "use a smaller stiffener_offset (typically about the rib height) or longer "
+                "plates"))
+        if self.panelize.sizes_panels and sandwich.stiffener_offset >= self.panelize.panel_size:
+            raise w.conflict("sandwich.stiffener_offset", "panelize.panel_size", (
+                "a side needs more than twice the stiffener offset for its corner stiffeners: "
+                "panels of the target size would get none"), (
+                "use a stiffener_offset well under half the panel size (typically about the "
+                "rib height)"))
 
 
 _SECTION_NAMES = tuple(_JobModel.model_fields)
@@ -299,7 +596,7 @@ class Job:
             try:
                 settings = _JobModel.model_validate(sections)
             except ValidationError as err:
-                raise InputError(f"{where}: {_describe(err)}") from None
+                raise InputError(f"{where}: {_describe(err, sections)}") from None
         elif sections:
             raise TypeError("give either settings or sections, not both")
         object.__setattr__(self, "settings", settings)
@@ -391,32 +688,62 @@ class Job:
         return self.settings.model_dump(mode="json", exclude_none=True)
 
 
-def _describe(err: ValidationError) -> str:
-    """One line for the first validation error: key, problem, what is allowed."""
+_SIGNS = {"greater_than": ">", "greater_than_equal": ">=", "less_than": "<",
+          "less_than_equal": "<="}
+
+
+def _describe(err: ValidationError, data: Any = None) -> str:
+    """One line for the first validation error: key, the value as written (looked up in the
+    raw ``data`` where pydantic holds only a part of it), problem, what is allowed."""
     first = err.errors()[0]
-    loc = [str(part) for part in first["loc"]]
-    key = _key_name(loc)
+    loc = list(first["loc"])
+    # list and tuple items (int parts) belong to their key: [loads] wind_direction
+    names = [str(part) for part in loc if not isinstance(part, int)]
+    items = [part for part in loc if isinstance(part, int)]
+    key = _key_name(names)
     kind = first["type"]
+    value = first.get("input")
     if kind == "extra_forbidden":
-        model = _JobModel
-        for part in loc[:-1]:
-            field = model.model_fields.get(part)
+        model: Any = _JobModel
+        for part in names[:-1]:
+            field = getattr(model, "model_fields", {}).get(part)
             model = field.annotation if field is not None else model
         allowed = ", ".join(getattr(model, "model_fields", {})) or "none"
-        what = "section" if len(loc) == 1 else "key"
+        what = "section" if len(names) == 1 else "key"
         return f"unknown {what} {key}; allowed here: {allowed}"
     if kind == "value_error":
-        message = str(first.get("ctx", {}).get("error", first["msg"]))
-        return f"{key}: {message}"
+        error = first.get("ctx", {}).get("error")
+        if isinstance(error, _RuleError):
+            return f"{_key_name(names + error.key.split('.'))}: {error}"
+        return f"{key}: {error if error is not None else first['msg']}"
     if kind == "literal_error":
-        return f"{key}: {first['input']!r} is not allowed; {first['msg'].lower()}"
-    if kind in {"greater_than", "greater_than_equal", "less_than", "less_than_equal"}:
+        return f"{key}: {as_written(value)} is not allowed; {first['msg'].lower()}"
+    if kind in _SIGNS:
         limit = next(iter(first.get("ctx", {}).values()), "")
-        sign = {"greater_than": ">", "greater_than_equal": ">=", "less_than": "<",
-                "less_than_equal": "<="}[kind]
-        unit = " mm" if isinstance(first["input"], str) and "m" in first["input"] else ""
-        return f"{key}: {first['input']!r} is out of range; it must be {sign} {limit}{unit}"
-    return f"{key}: {first['msg']} (got {first.get('input')!r})"
+        # quantities: the limit in the unit the user wrote ("-1.5 m": > 0 m)
+        if isinstance(limit, (int, float)):
+            shown = format_like(float(limit), value) or format_number(limit)
+        else:
+            shown = str(limit)
+        return f"{key}: {as_written(value)} is out of range; it must be {_SIGNS[kind]} {shown}"
+    if kind == "finite_number":
+        whole = _raw(data, loc[:len(loc) - len(items)])
+        if items and whole is not _MISSING:
+            # the whole list as written, or the item of a list of lists (a point)
+            item = whole[items[0]] if len(items) > 1 and isinstance(whole, (list, tuple)) else whole
+            where = f"item {items[0] + 1}, " if len(items) > 1 else ""
+            return f"{key}: {where}{as_written(item)} holds nan or inf; write finite numbers"
+        return f"{key}: {as_written(value)} is not a finite number; write a finite number"
+    return f"{key}: {first['msg']} (got {as_written(value)})"
+
+
+def _raw(data: Any, loc: list[Any]) -> Any:
+    """The raw input at ``loc`` (section, key), or ``_MISSING``."""
+    for part in loc:
+        if not isinstance(data, dict) or part not in data:
+            return _MISSING
+        data = data[part]
+    return data
 
 
 def _key_name(loc: list[str]) -> str:

@@ -14,6 +14,7 @@ import os
 import platform
 import shutil
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
@@ -24,6 +25,7 @@ from . import __version__
 from .data import DevelopedPanels, FlatParts, Model, Nests, PanelLayout, Surface
 from .errors import InputError, Issue
 from .job import STAGES, Job, Stage
+from .outdir import check_target, discard_staging, make_staging, move_into_place, sweep_stale
 
 if TYPE_CHECKING:
     from .structure import Structure
@@ -84,48 +86,62 @@ def run(job: Job, out_dir: str | Path | None = None, until: Stage = "structure",
         write: bool = True) -> Result:
     """Run the pipeline up to and including stage ``until``; write the outputs when ``write``.
 
-    out_dir : output folder (default: the job's ``[output] dir``). An existing folder is refused
-        unless ``force``; then it is replaced only once the new run has succeeded.
+    out_dir : output folder (default: the job's ``[output] dir``). The working folder, folders
+        holding the inputs and folders that are not fabpanel output are refused; an earlier
+        fabpanel output is refused unless ``force``, then replaced only once the new run has
+        succeeded (see :mod:`fabpanel.outdir`).
     jobs : worker processes for per-panel work (default: all cores).
     """
     if until not in STAGES:
         raise InputError(f"unknown stage {until!r}; use one of {', '.join(STAGES)}")
     progress = progress or _Silent()
     target = Path(out_dir).resolve() if out_dir else job.output_dir
-    if write and target.exists() and not force:
-        raise InputError(f"output folder {target} exists; pass --force to replace it or choose "
-                         f"another with --out")
+    if write:
+        check_target(target, job_inputs(job), force)
     surface = load(job)
     if not write:
         return _run_stages(job, surface, None, until, jobs, progress)
-    staging = target.parent / f".{target.name}.partial-{os.getpid()}"
-    if staging.exists():
-        shutil.rmtree(staging)
-    staging.mkdir(parents=True)
+    swept = sweep_stale(target)
+    if swept:
+        log.info("removed %d folder(s) left by earlier runs that were killed", len(swept))
+    staging = make_staging(target)
     try:
         result = _run_stages(job, surface, staging, until, jobs, progress)
     except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
+        discard_staging(staging)
         raise
-    _move_into_place(staging, target)
+    move_into_place(staging, target)
     return Result(**{**result.__dict__, "out_dir": target})
 
 
-def _move_into_place(staging: Path, target: Path) -> None:
-    old = None
-    if target.exists():
-        old = target.parent / f".{target.name}.old-{os.getpid()}"
-        target.rename(old)
-    staging.rename(target)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
+def job_inputs(job: Job) -> list[Path]:
+    """The files a run of ``job`` reads: the design surface, the job file, a user layout."""
+    paths = [p for p in (job.input_path, job.source) if p is not None]
+    if job.panelize.layout:
+        paths.append(job.base_dir / job.panelize.layout)
+    return [Path(p).resolve() for p in paths]
 
 
-def _timed(progress: Progress, stage: str, total: int | None, work):
+def _timed(progress: Progress, stage: str, total: int | None, work, issues: list[Issue]):
+    """Run one stage: its time, and the library warnings it raised as issues (not stderr)."""
     progress.start(stage, total)
     started = time.perf_counter()
-    value = work()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        value = work()
+    issues += warning_issues(stage, caught)
     return value, time.perf_counter() - started
+
+
+def warning_issues(stage: str, caught: list[warnings.WarningMessage]) -> list[Issue]:
+    """One ``library-warning`` issue per distinct warning (category, text) a stage raised."""
+    seen: dict[tuple[str, str], int] = {}
+    for item in caught:
+        key = (item.category.__name__, " ".join(str(item.message).split())[:200])
+        seen[key] = seen.get(key, 0) + 1
+    return [Issue("library-warning", f"{stage}: {category}: {text}"
+                  + (f" ({count} times)" if count > 1 else ""), severity="warning")
+            for (category, text), count in seen.items()]
 
 
 def _run_stages(job: Job, surface: Surface, folder: Path | None, until: Stage, jobs: int | None,
@@ -141,7 +157,7 @@ def _run_stages(job: Job, surface: Surface, folder: Path | None, until: Stage, j
     state: dict = {"surface": surface}
 
     layout, timings["panelize"] = _timed(progress, "panelize", None,
-                                         lambda: panelize(surface, job, query))
+                                         lambda: panelize(surface, job, query), issues)
     issues += layout.issues
     progress.finish("panelize", timings["panelize"], f"{len(layout.quads)} panels")
     state["layout"] = layout
@@ -149,7 +165,7 @@ def _run_stages(job: Job, surface: Surface, folder: Path | None, until: Stage, j
 
     if stop >= STAGES.index("develop"):
         developed, timings["develop"] = _timed(progress, "develop", None,
-                                               lambda: develop(layout, surface, job, query))
+                                               lambda: develop(layout, surface, job, query), issues)
         issues += developed.issues
         state["developed"] = developed
         ran.append("develop")
@@ -161,7 +177,8 @@ def _run_stages(job: Job, surface: Surface, folder: Path | None, until: Stage, j
 
         model, timings["build"] = _timed(
             progress, "build", len(layout.quads),
-            lambda: build(state["developed"], job, jobs=jobs, progress=progress.advance))
+            lambda: build(state["developed"], job, jobs=jobs, progress=progress.advance),
+            issues)
         issues += model.issues
         state["model"] = model
         ran.append("build")
@@ -176,7 +193,7 @@ def _run_stages(job: Job, surface: Surface, folder: Path | None, until: Stage, j
             flat = cut(state["model"], job, jobs=jobs)
             return flat, nest(flat, job, progress=lambda fraction, message: None)
 
-        (flat, nests), timings["cut"] = _timed(progress, "cut", None, cut_and_nest)
+        (flat, nests), timings["cut"] = _timed(progress, "cut", None, cut_and_nest, issues)
         issues += flat.issues + nests.issues
         state["flat"], state["nests"] = flat, nests
         ran.append("cut")
@@ -191,7 +208,8 @@ def _run_stages(job: Job, surface: Surface, folder: Path | None, until: Stage, j
         analysis, timings["structure"] = _timed(
             progress, "structure", None,
             lambda: analyse(state["model"], job,
-                            folder=folder / "structure" if folder is not None else None))
+                            folder=folder / "structure" if folder is not None else None),
+            issues)
         issues += analysis.issues
         state["structure"] = analysis
         structure = analysis.summary
@@ -205,7 +223,13 @@ def _run_stages(job: Job, surface: Surface, folder: Path | None, until: Stage, j
     summary = summarise(result, timings, structure)
     result = Result(**{**result.__dict__, "summary": summary})
     if folder is not None:
-        _write_outputs(result, folder, progress, jobs)
+        # the manifest is written first, so warnings of the writers (matplotlib's in the
+        # report) are logged for --debug rather than lost on stderr
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            _write_outputs(result, folder, progress, jobs)
+        for issue in warning_issues("write", caught):
+            log.info("%s", issue.message)
     return result
 
 

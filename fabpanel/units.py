@@ -1,7 +1,8 @@
 """Quantities with units, as written in job files ("3 mm", "4.5 m", "0.56 kN/m2", "210 GPa").
 
 Internally fabpanel works in millimetres, newtons, megapascals (N/mm2), kilograms and seconds.
-Every parser returns a float in those internal units.
+Every parser returns a float in those internal units. Errors quote the value as the user wrote
+it (``"5 m"``), never the internal number.
 """
 
 from __future__ import annotations
@@ -29,38 +30,65 @@ UNITS: dict[str, dict[str, float]] = {
 INTERNAL_UNIT = {"length": "mm", "pressure": "N/mm2", "stress": "MPa", "density": "kg/mm3",
                  "time": "s"}
 
-_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z/0-9²³]+)\s*$")
+_NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+# the unit starts with a letter, so the digits of "1.0" stay in the number (a bare number)
+_QUANTITY = re.compile(rf"^\s*({_NUMBER})\s*([A-Za-z][A-Za-z/0-9²³]*)\s*$")
+_BARE_NUMBER = re.compile(rf"^\s*({_NUMBER})\s*$")
 
 
 def _normalise_unit(unit: str) -> str:
     return unit.replace("²", "2").replace("³", "3")
 
 
+def as_written(value: object) -> str:
+    """A job value as the user wrote it in TOML: ``"5 m"`` (text in double quotes), ``0.3``,
+    ``true``, ``[nan, 0.0]``."""
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return f"[{', '.join(as_written(item) for item in value)}]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{key} = {as_written(item)}" for key, item in value.items()) + "}"
+    return str(value)
+
+
 def parse_quantity(value: object, dimension: str, where: str = "") -> float:
     """Parse ``"<number> <unit>"`` into the internal unit of ``dimension``.
 
     Raises :class:`InputError` naming ``where`` (the job key) when the value has no unit, a unit
-    of the wrong dimension, or is not finite.
+    of the wrong dimension, or is not finite once converted (``"1e308 m"`` is 1e311 mm: inf).
     """
     units = UNITS[dimension]
     allowed = ", ".join(units)
+    first, last = next(iter(units)), list(units)[-1]
     key = f"{where}: " if where else ""
     if isinstance(value, bool) or not isinstance(value, (str, int, float)):
-        raise InputError(f"{key}expected a {dimension} such as \"3 {next(iter(units))}\", "
-                         f"got {value!r}")
-    if isinstance(value, (int, float)):
-        raise InputError(f"{key}the {dimension} {value!r} has no unit; write it with one of "
-                         f"{allowed}, e.g. \"{value} {next(iter(units))}\"")
+        raise InputError(f"{key}expected a {dimension} such as \"3 {first}\", "
+                         f"got {as_written(value)}")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise InputError(f"{key}{as_written(value)} is not a finite number; write a {dimension} "
+                         f"with its unit, e.g. \"3 {first}\"")
+    if isinstance(value, (int, float)) or _BARE_NUMBER.match(value):
+        number = value.strip() if isinstance(value, str) else value
+        raise InputError(f"{key}the {dimension} {as_written(value)} has no unit; units are "
+                         f"explicit in a job file: write it with one of {allowed}, e.g. "
+                         f"\"{number} {first}\" or \"{number} {last}\"")
     match = _QUANTITY.match(value)
     if not match:
-        raise InputError(f"{key}cannot read {value!r} as a {dimension}; write a number and a unit "
-                         f"({allowed}), e.g. \"3 {next(iter(units))}\"")
+        raise InputError(f"{key}cannot read {as_written(value)} as a {dimension}; write a number "
+                         f"and a unit ({allowed}), e.g. \"3 {first}\"")
     number, unit = float(match.group(1)), _normalise_unit(match.group(2))
     if unit not in units:
-        raise InputError(f"{key}unit {unit!r} is not a {dimension} unit; use one of {allowed}")
-    if not math.isfinite(number):
-        raise InputError(f"{key}{value!r} is not a finite number")
-    return number * units[unit]
+        raise InputError(f"{key}unit \"{unit}\" in {as_written(value)} is not a {dimension} "
+                         f"unit; use one of {allowed}")
+    result = number * units[unit]
+    # after the scaling: "1e308 m" is a finite number but an infinite length in mm
+    if not math.isfinite(result):
+        raise InputError(f"{key}{as_written(value)} is too large: not a finite number in "
+                         f"{INTERNAL_UNIT[dimension]}; write a realistic {dimension}")
+    return result
 
 
 def format_quantity(value: float, dimension: str) -> str:
@@ -69,9 +97,50 @@ def format_quantity(value: float, dimension: str) -> str:
     return f"{value:.15g} {INTERNAL_UNIT[dimension]}"
 
 
+def format_like(value: float, written: object) -> str | None:
+    """An internal value in the unit of a quantity as the user wrote it: ``format_like(1480.0,
+    "1.5 m")`` is ``"1.48 m"``; None when ``written`` is not a quantity with a known unit."""
+    match = _QUANTITY.match(written) if isinstance(written, str) else None
+    if match is None:
+        return None
+    unit = _normalise_unit(match.group(2))
+    # a unit belongs to one dimension, or to two with the same factor (N/mm2: pressure, stress)
+    factor = next((units[unit] for units in UNITS.values() if unit in units), None)
+    if factor is None:
+        return None
+    return f"{format_number(value / factor)} {unit}"
+
+
+def format_number(value: float) -> str:
+    """A number for a message: four significant digits, no exponent for large ones (12346)."""
+    text = f"{value:.4g}"
+    return f"{value:.0f}" if "e+" in text else text
+
+
 def length_scale(units: str) -> float:
     """Factor from the input's declared length unit to millimetres."""
     try:
         return UNITS["length"][units]
     except KeyError as err:
         raise InputError(f"input units {units!r} are not supported; use m or mm (or cm)") from err
+
+
+def length_option(text: str, default_units: str | None,
+                  option: str = "--panel-size") -> tuple[str, str | None]:
+    """A length given on the command line, as a quantity the job accepts, and a note.
+
+    ``"1.2 m"`` comes back as it is, with no note. A bare number (``"1.2"``, ``"1200"``) is
+    read in ``default_units``, the input's length unit, and comes back as ``"1.2 m"`` with a
+    one-line note saying so; without ``default_units`` it raises :class:`InputError` asking for
+    a unit. (In a job file a bare number stays an error: there units are explicit.)
+    """
+    text = text.strip()
+    if _BARE_NUMBER.match(text):
+        if default_units is None:
+            raise InputError(f"{option} {text} has no unit and the input declares none; write "
+                             f"it with one, e.g. {option} \"{text} m\" or \"{text} mm\"")
+        length_scale(default_units)
+        quantity = f"{text} {default_units}"
+        return quantity, f"{option} {text} has no unit: read as {quantity}, the input's units"
+    parse_quantity(text, "length", option)
+    return text, None

@@ -96,13 +96,14 @@ def test_bad_job_exits_2_naming_the_key(case, tmp_path):
     assert set(tmp_path.iterdir()) == before
 
 
-def test_existing_output_folder_is_refused_without_force(tmp_path):
+def test_existing_folder_that_is_not_fabpanel_output_is_refused_even_with_force(tmp_path):
     surface = _square(tmp_path / "square.obj")
     out = tmp_path / "out"
     out.mkdir()
     (out / "keep.txt").write_text("mine")
-    result = _run("export", str(surface), "--units", "m", "--out", str(out))
-    assert result.exit_code == 2 and "--force" in result.stderr
+    for extra in ([], ["--force"]):
+        result = _run("export", str(surface), "--units", "m", "--out", str(out), *extra)
+        assert result.exit_code == 2 and "not a fabpanel output" in result.stderr
     assert (out / "keep.txt").read_text() == "mine"
 
 

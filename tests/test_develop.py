@@ -13,12 +13,12 @@ from fabpanel.develop.measure import advised_panel_size
 from fabpanel.develop.sides import panel_sides, side_planes
 from fabpanel.report.develop_figures import gaussian_curvature
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # shipped: fabpanel demo
 
 
 @pytest.fixture(scope="module")
 def vault():
-    surface = load_surface(EXAMPLES / "barrel-vault.step")
+    surface = load_surface(DEMO / "barrel-vault.step")
     job = Job.from_dict({"panelize": {"grid_u": 4, "grid_v": 3}, "develop": {"method": "project"}})
     return develop(panelize(surface, job), surface, job)
 

@@ -10,12 +10,13 @@ import pytest
 from fabpanel import GeometryError, Job, load_surface, panelize
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # shipped: fabpanel demo
 RADIUS, LENGTH = 4000.0, 12000.0
 
 
 @pytest.fixture(scope="module")
 def vault_step():
-    return load_surface(EXAMPLES / "barrel-vault.step")
+    return load_surface(DEMO / "barrel-vault.step")
 
 
 @pytest.fixture(scope="module")

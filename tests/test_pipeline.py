@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import csv
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +13,7 @@ import fabpanel as fp
 from fabpanel.tolerances import TOLERANCES
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # shipped: fabpanel demo
 # a smaller vault than the example keeps the test fast: radius 2 m, length 2.4 m, 8 panels
 RADIUS, LENGTH = 2000.0, 2400.0
 GRID_U, GRID_V = 4, 2           # 4 panels around the arc (45 degrees, 1571 mm), 2 along x
@@ -21,8 +21,7 @@ GRID_U, GRID_V = 4, 2           # 4 panels around the arc (45 degrees, 1571 mm),
 
 @pytest.fixture(scope="session")
 def small_vault(tmp_path_factory) -> Path:
-    sys.path.insert(0, str(EXAMPLES))
-    from barrel_vault import write_barrel_vault_step
+    from fabpanel.examples.barrel_vault import write_barrel_vault_step
 
     folder = tmp_path_factory.mktemp("input")
     return write_barrel_vault_step(folder / "small-vault.step", radius=RADIUS, length=LENGTH)
@@ -35,7 +34,7 @@ def _vault_path(small_vault):
 
 
 def _job(**changes) -> fp.Job:
-    job = fp.Job.from_toml(EXAMPLES / "barrel-vault.toml")
+    job = fp.Job.from_toml(DEMO / "barrel-vault.toml")
     job = fp.Job.from_dict({**job.to_dict(), "input": {"path": str(VAULT)}},
                            base_dir=VAULT.parent)
     sections = {"panelize": {"grid_u": GRID_U, "grid_v": GRID_V}, "cutting": {"nest_time": "0 s"}}

@@ -17,12 +17,12 @@ from fabpanel.develop.project import sample_panels
 from fabpanel.develop.sides import across_sides
 from fabpanel.surface import SurfaceQuery
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # shipped: fabpanel demo
 
 
 @pytest.fixture(scope="module")
 def vault():
-    surface = load_surface(EXAMPLES / "barrel-vault.step")
+    surface = load_surface(DEMO / "barrel-vault.step")
     job = Job.from_dict({"panelize": {"grid_u": 4, "grid_v": 3}})
     return surface, job, panelize(surface, job)
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -43,7 +42,7 @@ from fabpanel.structure.ccx import read_knots, surface_nodes
 from fabpanel.structure.checks import combinations, mode_extent, span_of, von_mises
 from fabpanel.structure.mesh import grid_quads, merge_nodes, resample_grids, sandwich_settings
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # shipped: fabpanel demo
 needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None,
                                reason="CalculiX (ccx) is not installed: sudo apt-get install "
                                       "calculix-ccx")
@@ -267,7 +266,7 @@ def test_stiffener_masses_and_holes_reach_the_shell_model(cylinder_model):
 
 @pytest.fixture(scope="module")
 def vault_structure(tmp_path_factory):
-    job = fp.Job.from_toml(EXAMPLES / "barrel-vault.toml")
+    job = fp.Job.from_toml(DEMO / "barrel-vault.toml")
     # wind across the vault (the example's blows along its axis and meets only the rims)
     job = job.replace(structure={"element_size": "1.3 m"},
                       loads={"wind_direction": [0.0, 1.0], "wind_opposite": True})
@@ -331,9 +330,7 @@ def test_cli_export_without_ccx_completes_unless_required(tmp_path, monkeypatch)
     from click.testing import CliRunner
 
     from fabpanel.cli import main
-
-    sys.path.insert(0, str(EXAMPLES))
-    from barrel_vault import write_barrel_vault_step
+    from fabpanel.examples.barrel_vault import write_barrel_vault_step
 
     step = write_barrel_vault_step(tmp_path / "vault.step", radius=2000.0, length=1200.0)
     job = tmp_path / "job.toml"

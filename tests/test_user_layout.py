@@ -14,13 +14,13 @@ from fabpanel.panelize.export import write_layout_obj
 from fabpanel.panelize.user_layout import read_quad_mesh, user_layout
 from fabpanel.surface import SurfaceQuery, load_surface
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-RADIUS = 4000.0  # mm, examples/barrel-vault.step: axis along +x, crown at +z, length 12 m
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # shipped: fabpanel demo
+RADIUS = 4000.0  # mm, fabpanel/examples/barrel-vault.step: axis along +x, crown at +z, length 12 m
 
 
 @pytest.fixture(scope="module")
 def vault():
-    surface = load_surface(EXAMPLES / "barrel-vault.step")
+    surface = load_surface(DEMO / "barrel-vault.step")
     return surface, SurfaceQuery(surface)
 
 
@@ -33,7 +33,7 @@ def vault_layout(radius_m: float = RADIUS / 1000) -> tuple[np.ndarray, np.ndarra
     """3 x 2 quads over the vault, metres: 3 along x (4 m), 2 around (90 degrees each).
 
     Vertex (i, j) = i * 3 + j at x = 4 i, angle 90 j degrees; quads counter-clockwise seen from
-    outside (along the arc first, then along x), as examples/barrel_vault.py does.
+    outside (along the arc first, then along x), as fabpanel/examples/barrel_vault.py does.
     """
     xs, angles = np.array([0.0, 4.0, 8.0, 12.0]), np.radians([0.0, 90.0, 180.0])
     X, A = np.meshgrid(xs, angles, indexing="ij")
@@ -223,7 +223,7 @@ def test_panelize_dispatches_to_the_layout(tmp_path, vault):
     surface, query = vault
     vertices, quads = vault_layout()
     write_obj(tmp_path / "drawn.obj", vertices, quads)
-    job = Job.from_dict({"input": {"path": str(EXAMPLES / "barrel-vault.step"), "units": "m"},
+    job = Job.from_dict({"input": {"path": str(DEMO / "barrel-vault.step"), "units": "m"},
                          "panelize": {"method": "layout", "layout": "drawn.obj"}},
                         base_dir=tmp_path)
     layout = panelize(surface, job, query)

@@ -17,6 +17,7 @@ from __future__ import annotations
 from ..data import PanelLayout, Surface
 from ..job import Job
 from ..surface import SurfaceQuery
+from .estimate import check_panel_count
 from .grid import grid_panelize, is_four_sided
 
 
@@ -32,8 +33,11 @@ def panelize(surface: Surface, job: Job, query: SurfaceQuery | None = None) -> P
     """Cover ``surface`` with quad panels as ``job.panelize`` asks (see the module docstring).
 
     Raises :class:`~fabpanel.errors.GeometryError` when the chosen method cannot handle the
-    surface, with a message that names the method to use instead.
+    surface, with a message that names the method to use instead, and
+    :class:`~fabpanel.errors.InputError` when the panel count shows a unit or size mistake
+    (:func:`~.estimate.check_panel_count`).
     """
+    check_panel_count(surface, job)
     query = query or SurfaceQuery(surface)
     method = choose_method(surface, job)
     if method == "grid":

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SolverError
+from ..parallel import child_preexec
 from .loads import GRAVITY
 from .mesh import ShellModel
 
@@ -234,7 +235,7 @@ def run_ccx(deck: Path, threads: int = 1, timeout: float | None = None,
         with log_path.open("w") as handle:
             proc = subprocess.run([executable, "-i", stem.name], cwd=stem.parent, env=env,
                                   stdout=handle, stderr=subprocess.STDOUT, timeout=timeout,
-                                  check=False)
+                                  check=False, preexec_fn=child_preexec)
     except subprocess.TimeoutExpired as err:
         raise SolverError(f"CalculiX did not finish {deck.name} within {timeout:g} s; use a "
                           f"coarser [structure] element_size or a longer timeout") from err

@@ -3,8 +3,10 @@
 Writes the exact surface as STEP (millimetres, one cylindrical face) and a quad mesh as OBJ
 (metres, as a designer's mesh export would be), so both input paths can be run:
 
-    python examples/barrel_vault.py            # writes examples/barrel-vault.step and .obj
-    fabpanel export examples/barrel-vault.toml
+    python -m fabpanel.examples.barrel_vault   # writes fabpanel/examples/barrel-vault.step (the
+                                               # demo's, shipped) and examples/barrel-vault.obj
+    python -m fabpanel.examples.barrel_vault some/folder   # ... both into another folder
+    fabpanel demo                              # runs fabpanel/examples/barrel-vault.toml
     fabpanel export examples/barrel-vault.obj --units m
 """
 
@@ -72,6 +74,12 @@ def write_barrel_vault(path: str | Path) -> Path:
 
 
 if __name__ == "__main__":
-    folder = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).parent
-    print(write_barrel_vault(folder / "barrel-vault.step"))
-    print(write_barrel_vault(folder / "barrel-vault.obj"))
+    # default: the STEP beside this module (package data of fabpanel demo), the OBJ (a test
+    # fixture, not shipped) into the checkout's top-level examples/
+    if len(sys.argv) > 1:
+        step_folder = obj_folder = Path(sys.argv[1])
+    else:
+        step_folder = Path(__file__).resolve().parent
+        obj_folder = step_folder.parents[1] / "examples"
+    print(write_barrel_vault(step_folder / "barrel-vault.step"))
+    print(write_barrel_vault(obj_folder / "barrel-vault.obj"))

@@ -1,0 +1,262 @@
+"""Reliability: the user's files are never lost, unit mistakes are refused before any work, a
+run stops cleanly on SIGINT/SIGTERM (and its workers die even on SIGKILL), error-level issues
+exit 3, stderr holds one line per error.
+
+Each test reproduces a failure a user met (issue 14) with a small generated shape.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import fabpanel as fp
+from fabpanel.outdir import STAGING_MARK, sweep_stale
+
+
+def _vault_obj(path: Path, scale: float = 1.0, length: float = 6.0, width: float = 4.0,
+               rise: float = 0.8, n: int = 24) -> Path:
+    """A shallow barrel vault (chord ``width``, along x ``length``), as an OBJ in metres x scale."""
+    x, y = np.meshgrid(np.linspace(0, length, n + 1), np.linspace(-width / 2, width / 2, n + 1),
+                       indexing="ij")
+    radius = (rise ** 2 + (width / 2) ** 2) / (2 * rise)
+    z = np.sqrt(radius ** 2 - y ** 2) - (radius - rise)
+    points = np.stack([x, y, z], axis=-1).reshape(-1, 3) * scale
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    v = (i * (n + 1) + j).ravel()
+    quads = np.stack([v, v + n + 1, v + n + 2, v + 1], axis=1)
+    path.write_text("\n".join(f"v {a:.12g} {b:.12g} {c:.12g}" for a, b, c in points) + "\n"
+                    + "\n".join("f " + " ".join(str(q + 1) for q in quad) for quad in quads)
+                    + "\n")
+    return path
+
+
+def _cli(*args: str, cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "fabpanel", *args], cwd=cwd,
+                          capture_output=True, text=True, timeout=timeout, check=False)
+
+
+def _lines(text: str) -> list[str]:
+    return [line for line in text.splitlines() if line.strip()]
+
+
+def _tree(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file()}
+
+
+# ---------------------------------------------------------------------------------------------
+# output safety
+# ---------------------------------------------------------------------------------------------
+@pytest.fixture
+def workdir(tmp_path) -> Path:
+    work = tmp_path / "work"
+    work.mkdir()
+    _vault_obj(work / "base.obj")
+    (work / "job.toml").write_text('[input]\npath = "base.obj"\nunits = "m"\n')
+    (work / "notes.txt").write_text("the client's notes")
+    return work
+
+
+@pytest.mark.parametrize("out", [".", "..", "base.obj", "job.toml"])
+def test_output_never_replaces_the_working_folder_or_an_input(workdir, out):
+    before = _tree(workdir.parent)
+    result = _cli("export", "job.toml", "--out", out, "--force", "--until", "panelize",
+                  cwd=workdir)
+    assert result.returncode == 2, result.stderr
+    assert len(_lines(result.stderr)) == 1 and "error:" in result.stderr
+    assert _tree(workdir.parent) == before
+
+
+def test_output_folder_holding_the_input_is_refused(workdir):
+    sub = workdir / "design"
+    sub.mkdir()
+    (workdir / "base.obj").rename(sub / "base.obj")
+    result = _cli("export", "design/base.obj", "--units", "m", "--out", "design", "--force",
+                  cwd=workdir)
+    assert result.returncode == 2 and "base.obj" in result.stderr
+    assert (sub / "base.obj").is_file()
+
+
+def test_a_folder_that_is_not_fabpanel_output_is_never_replaced(workdir):
+    mine = workdir / "mine"
+    mine.mkdir()
+    (mine / "drawing.dwg").write_text("precious")
+    result = _cli("export", "job.toml", "--out", "mine", "--force", "--until", "panelize",
+                  cwd=workdir)
+    assert result.returncode == 2 and "not a fabpanel output" in result.stderr
+    assert "--force" not in result.stderr.split(";")[-1]     # the fix is another folder
+    assert (mine / "drawing.dwg").read_text() == "precious"
+
+
+def test_an_earlier_output_is_replaced_with_force_and_an_empty_folder_is_used(workdir):
+    (workdir / "out").mkdir()
+    first = _cli("export", "job.toml", "--out", "out", "--until", "panelize", cwd=workdir)
+    assert first.returncode == 0, first.stderr
+    again = _cli("export", "job.toml", "--out", "out", "--until", "panelize", cwd=workdir)
+    assert again.returncode == 2 and "--force" in again.stderr
+    forced = _cli("export", "job.toml", "--out", "out", "--until", "panelize", "--force",
+                  cwd=workdir)
+    assert forced.returncode == 0, forced.stderr
+    assert json.loads((workdir / "out" / "manifest.json").read_text())["stages_run"] == \
+        ["panelize"]
+    assert sorted(p.name for p in workdir.iterdir()) == ["base.obj", "job.toml", "notes.txt",
+                                                          "out"]
+
+
+def test_stale_staging_folders_of_dead_runs_are_swept(tmp_path):
+    target = tmp_path / "out"
+    dead = _dead_pid()
+    stale = tmp_path / f".out.partial-{dead}"
+    stale.mkdir()
+    (stale / STAGING_MARK).write_text(str(dead))
+    live = tmp_path / f".out.partial-{os.getpid()}"
+    live.mkdir()
+    (live / STAGING_MARK).write_text(str(os.getpid()))
+    foreign = tmp_path / f".out.partial-{dead + 1}"           # no mark: not ours
+    foreign.mkdir()
+    assert sweep_stale(target) == [stale]
+    assert not stale.exists() and live.exists() and foreign.exists()
+
+
+def _dead_pid() -> int:
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+# ---------------------------------------------------------------------------------------------
+# unit and size mistakes, before any work
+# ---------------------------------------------------------------------------------------------
+@pytest.mark.parametrize(("scale", "units", "size", "hint"), [
+    (1000.0, "m", None, "--units mm"),             # mm coordinates declared as metres
+    (1.0, "mm", None, "--units m"),                # metre coordinates declared as mm
+    (1.0, "m", "0.05 m", "--panel-size"),           # 9600 panels on a 6 x 4 m vault
+])
+def test_unit_and_size_mistakes_are_refused_at_once(tmp_path, scale, units, size, hint):
+    mesh = _vault_obj(tmp_path / "vault.obj", scale=scale)
+    args = ["export", "vault.obj", "--units", units, "--out", "out"]
+    if size:
+        args += ["--panel-size", size]
+    started = time.perf_counter()
+    result = _cli(*args, cwd=tmp_path, timeout=120)
+    assert result.returncode == 2, result.stderr
+    assert time.perf_counter() - started < 60
+    line, = _lines(result.stderr)
+    assert hint in line and mesh.name in line and "panel" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["vault.obj"]
+
+
+def test_max_panels_is_a_job_setting(tmp_path):
+    surface = fp.load_surface(_vault_obj(tmp_path / "vault.obj"), "m")
+    from fabpanel.panelize.estimate import check_panel_count
+
+    job = fp.Job(panelize={"panel_size": "0.5 m", "max_panels": 50})
+    with pytest.raises(fp.InputError, match="max_panels = 50"):
+        check_panel_count(surface, job)
+    assert check_panel_count(surface, job.replace(panelize={"max_panels": 500})) == \
+        pytest.approx(surface.area / 500.0 ** 2)
+
+
+def test_a_bare_panel_size_takes_the_input_units(tmp_path):
+    _vault_obj(tmp_path / "vault.obj")
+    result = _cli("export", "vault.obj", "--units", "m", "--panel-size", "2", "--until",
+                  "panelize", "--out", "out", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "2 m" in result.stderr.splitlines()[0]                  # the note says how it read
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    assert manifest["job"]["panelize"]["panel_size"] == "2000 mm"
+
+
+# ---------------------------------------------------------------------------------------------
+# signals
+# ---------------------------------------------------------------------------------------------
+def _children(pid: int) -> list[int]:
+    found = []
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        text = (task / "children").read_text() if (task / "children").exists() else ""
+        found += [int(c) for c in text.split()]
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    return state != "Z"
+
+
+def _start_build(tmp_path: Path) -> tuple[subprocess.Popen, Path]:
+    """An export that spends its time in the build's worker processes (~100 panels)."""
+    _vault_obj(tmp_path / "vault.obj")
+    (tmp_path / "job.toml").write_text(
+        '[input]\npath = "vault.obj"\nunits = "m"\n[panelize]\npanel_size = "0.5 m"\n'
+        '[develop]\nmethod = "project"\n')
+    proc = subprocess.Popen([sys.executable, "-m", "fabpanel", "export", "job.toml", "--out",
+                             "out", "--until", "build", "--jobs", "2"], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while len(_children(proc.pid)) < 2:                 # the build's workers are up
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "the build never started"
+        time.sleep(0.1)
+    time.sleep(1.0)
+    return proc, tmp_path
+
+
+@pytest.mark.parametrize(("sig", "code"), [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_a_signal_stops_the_run_cleanly_within_5_s(tmp_path, sig, code):
+    proc, folder = _start_build(tmp_path)
+    workers = _children(proc.pid)
+    sent = time.monotonic()
+    proc.send_signal(sig)
+    _, stderr = proc.communicate(timeout=30)
+    assert time.monotonic() - sent < 5.0
+    assert proc.returncode == code, stderr
+    assert _lines(stderr)[-1].startswith(f"stopped by {sig.name}")
+    assert "Traceback" not in stderr
+    time.sleep(0.5)
+    assert not [w for w in workers if _alive(w)]
+    assert sorted(p.name for p in folder.iterdir()) == ["job.toml", "vault.obj"]
+
+
+def test_workers_die_with_a_killed_run_and_its_debris_is_swept(tmp_path):
+    proc, folder = _start_build(tmp_path)
+    workers = _children(proc.pid)
+    proc.kill()
+    proc.communicate(timeout=30)
+    deadline = time.monotonic() + 5
+    while [w for w in workers if _alive(w)] and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [w for w in workers if _alive(w)]
+    partial = [p.name for p in folder.iterdir() if ".partial-" in p.name]
+    assert partial == [f".out.partial-{proc.pid}"]
+    rerun = _cli("export", "job.toml", "--out", "out", "--until", "panelize", cwd=folder)
+    assert rerun.returncode == 0, rerun.stderr
+    assert sorted(p.name for p in folder.iterdir()) == ["job.toml", "out", "vault.obj"]
+
+
+# ---------------------------------------------------------------------------------------------
+# exit codes and stderr
+# ---------------------------------------------------------------------------------------------
+def test_library_warnings_become_issues_not_stderr():
+    import warnings
+
+    from fabpanel.pipeline import warning_issues
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for _ in range(3):
+            np.divide(np.zeros(2), np.zeros(2))
+    issues = warning_issues("develop", caught)
+    assert len(issues) == 1 and issues[0].code == "library-warning"
+    assert "3 times" in issues[0].message and "develop" in issues[0].message
