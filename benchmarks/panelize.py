@@ -18,7 +18,7 @@ from pathlib import Path
 import fabpanel as fp
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # barrel-vault, shipped
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"  # barrel-vault, shipped
 # example jobs by name: the shipped demo and the shapes in examples/
 JOBS = {p.stem: p for p in sorted([*DEMO.glob("*.toml"), *EXAMPLES.glob("*.toml")])}
 
@@ -47,19 +47,36 @@ def main() -> None:
                 print(f"{path.stem:>14} {size:>7}: {err}", file=sys.stderr)
                 continue
             seconds = time.perf_counter() - started
-            peak = tracemalloc.get_traced_memory()[1] / 2 ** 20
+            peak = tracemalloc.get_traced_memory()[1] / 2**20
             tracemalloc.stop()
             m = layout.metrics
-            record = {"example": path.stem, "panel_size": size.strip(), "method": layout.method,
-                      "seconds": round(seconds, 3), "peak_python_mb": round(peak, 1),
-                      **{k: m[k] for k in ("panels", "singular_valences", "edge_length_mm",
-                                           "edge_lengths_within_band", "corner_angle_deg",
-                                           "aspect_ratio_max", "panels_exceeding_plate",
-                                           "boundary_coverage_mm") if k in m}}
+            record = {
+                "example": path.stem,
+                "panel_size": size.strip(),
+                "method": layout.method,
+                "seconds": round(seconds, 3),
+                "peak_python_mb": round(peak, 1),
+                **{
+                    k: m[k]
+                    for k in (
+                        "panels",
+                        "singular_valences",
+                        "edge_length_mm",
+                        "edge_lengths_within_band",
+                        "corner_angle_deg",
+                        "aspect_ratio_max",
+                        "panels_exceeding_plate",
+                        "boundary_coverage_mm",
+                    )
+                    if k in m
+                },
+            }
             runs.append(record)
-            print(f"{path.stem:>14} {size:>7}: {record['panels']} panels in {seconds:.2f} s, "
-                  f"edges {m['edge_length_mm']}, singular {m.get('singular_valences')}",
-                  file=sys.stderr)
+            print(
+                f"{path.stem:>14} {size:>7}: {record['panels']} panels in {seconds:.2f} s, "
+                f"edges {m['edge_length_mm']}, singular {m.get('singular_valences')}",
+                file=sys.stderr,
+            )
     print(json.dumps({"benchmark": "panelize", "runs": runs}))
 
 

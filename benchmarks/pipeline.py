@@ -17,7 +17,7 @@ from pathlib import Path
 
 import fabpanel as fp
 
-DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # barrel-vault, shipped
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"  # barrel-vault, shipped
 
 
 def main() -> None:
@@ -28,23 +28,31 @@ def main() -> None:
     figures = []
     for size in args.sizes.split(","):
         job = fp.Job.from_toml(DEMO / "barrel-vault.toml").replace(
-            panelize={"panel_size": size.strip()})
+            panelize={"panel_size": size.strip()}
+        )
         with tempfile.TemporaryDirectory() as folder:
             started = time.perf_counter()
             result = fp.run(job, out_dir=Path(folder) / "out", jobs=args.jobs)
             seconds = time.perf_counter() - started
         record = {
-            "panel_size": size.strip(), "panels": result.summary["panels"]["count"],
-            "parts": result.summary["parts"]["count"], "plates": len(result.nests.plates),
+            "panel_size": size.strip(),
+            "panels": result.summary["panels"]["count"],
+            "parts": result.summary["parts"]["count"],
+            "plates": len(result.nests.plates),
             "utilisation": result.nests.metrics.get("utilisation"),
-            "seconds_total": round(seconds, 2), "seconds_by_stage": result.summary["timings_s"],
+            "seconds_total": round(seconds, 2),
+            "seconds_by_stage": result.summary["timings_s"],
             "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
             "peak_rss_children_mb": round(
-                resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024, 1),
+                resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024, 1
+            ),
         }
-        print(f"{record['panel_size']:>8}: {record['panels']} panels, {record['parts']} parts, "
-              f"{record['plates']} plates, {record['seconds_total']} s, "
-              f"{record['peak_rss_mb']} MB", file=sys.stderr)
+        print(
+            f"{record['panel_size']:>8}: {record['panels']} panels, {record['parts']} parts, "
+            f"{record['plates']} plates, {record['seconds_total']} s, "
+            f"{record['peak_rss_mb']} MB",
+            file=sys.stderr,
+        )
         figures.append(record)
     print(json.dumps({"benchmark": "pipeline-barrel-vault", "runs": figures}))
 

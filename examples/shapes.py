@@ -67,8 +67,9 @@ PATCH_Z0, PATCH_CX, PATCH_CY, PATCH_CXY = 3.0, 1.4, 1.0, 0.5
 # --------------------------------------------------------------------------------------------
 # small helpers
 # --------------------------------------------------------------------------------------------
-def write_obj(path: str | Path, vertices: np.ndarray, faces: np.ndarray, header: str,
-              digits: int = 4) -> Path:
+def write_obj(
+    path: str | Path, vertices: np.ndarray, faces: np.ndarray, header: str, digits: int = 4
+) -> Path:
     """Write a mesh as OBJ (1-based indices). ``digits`` decimals: 4 in metres is 0.1 mm."""
     path = Path(path)
     fmt = f"v {{:.{digits}f}} {{:.{digits}f}} {{:.{digits}f}}"
@@ -86,8 +87,7 @@ def resample_closed(points: np.ndarray, spacing: float) -> np.ndarray:
     points : (n, 2) float, densely sampled closed curve. The count is ``ceil(length / spacing)``.
     """
     closed = np.vstack([points, points[:1]])
-    cumulative = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(closed, axis=0),
-                                                                 axis=1))])
+    cumulative = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(closed, axis=0), axis=1))])
     count = max(8, math.ceil(cumulative[-1] / spacing))
     targets = np.linspace(0.0, cumulative[-1], count, endpoint=False)
     return np.stack([np.interp(targets, cumulative, closed[:, c]) for c in range(2)], axis=1)
@@ -113,8 +113,9 @@ def triangular_lattice(low: np.ndarray, high: np.ndarray, spacing: float) -> np.
     return np.stack([X.ravel(), Y.ravel()], axis=1)
 
 
-def triangulate_domain(outer: np.ndarray, holes: list[np.ndarray], interior: np.ndarray
-                       ) -> tuple[np.ndarray, np.ndarray]:
+def triangulate_domain(
+    outer: np.ndarray, holes: list[np.ndarray], interior: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Triangulate a planar domain: outer loop minus holes, with given interior points.
 
     outer, holes : (k, 2) float closed loops (first point not repeated), sampled finely enough
@@ -137,14 +138,16 @@ def triangulate_domain(outer: np.ndarray, holes: list[np.ndarray], interior: np.
         inside &= ~points_in_polygon(centroids, hole)
     triangles = triangles[inside]
     a, b, c = (points[triangles[:, k]] for k in range(3))
-    signed = 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
-                    - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    signed = 0.5 * (
+        (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    )
     triangles = np.where((signed < 0)[:, None], triangles[:, ::-1], triangles)
     triangles = triangles[np.abs(signed) > 1e-12 * float(np.ptp(points, axis=0).max()) ** 2]
     # every boundary segment must be an edge of exactly one triangle, and no other edge may be
     # a boundary edge
-    edges = np.sort(np.stack([triangles, np.roll(triangles, -1, axis=1)], axis=2).reshape(-1, 2),
-                    axis=1)
+    edges = np.sort(
+        np.stack([triangles, np.roll(triangles, -1, axis=1)], axis=2).reshape(-1, 2), axis=1
+    )
     unique, counts = np.unique(edges, axis=0, return_counts=True)
     expected, start = [], 0
     for loop in loops:
@@ -153,10 +156,11 @@ def triangulate_domain(outer: np.ndarray, holes: list[np.ndarray], interior: np.
         start += len(loop)
     expected = np.unique(np.vstack(expected), axis=0)
     boundary = unique[counts == 1]
-    if counts.max() > 2 or len(boundary) != len(expected) or not np.array_equal(boundary,
-                                                                              expected):
-        raise RuntimeError("the triangulation does not follow the boundary; sample the "
-                           "boundary more finely relative to the interior spacing")
+    if counts.max() > 2 or len(boundary) != len(expected) or not np.array_equal(boundary, expected):
+        raise RuntimeError(
+            "the triangulation does not follow the boundary; sample the "
+            "boundary more finely relative to the interior spacing"
+        )
     return points, triangles
 
 
@@ -187,13 +191,23 @@ def one_opening_mesh(spacing: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
     a, b = ROOF_HALF
     t = np.linspace(0.0, 2.0 * np.pi, 4000, endpoint=False)
     power = 2.0 / ROOF_EXPONENT
-    dense = np.stack([a * np.sign(np.cos(t)) * np.abs(np.cos(t)) ** power,
-                      b * np.sign(np.sin(t)) * np.abs(np.sin(t)) ** power], axis=1)
+    dense = np.stack(
+        [
+            a * np.sign(np.cos(t)) * np.abs(np.cos(t)) ** power,
+            b * np.sign(np.sin(t)) * np.abs(np.sin(t)) ** power,
+        ],
+        axis=1,
+    )
     outer = resample_closed(dense, 0.5 * spacing)
     angle = math.radians(OPENING_ANGLE)
     ex, ey = OPENING_AXES[0] * np.cos(t), OPENING_AXES[1] * np.sin(t)
-    hole = np.stack([OPENING_CENTRE[0] + ex * math.cos(angle) - ey * math.sin(angle),
-                     OPENING_CENTRE[1] + ex * math.sin(angle) + ey * math.cos(angle)], axis=1)
+    hole = np.stack(
+        [
+            OPENING_CENTRE[0] + ex * math.cos(angle) - ey * math.sin(angle),
+            OPENING_CENTRE[1] + ex * math.sin(angle) + ey * math.cos(angle),
+        ],
+        axis=1,
+    )
     hole = resample_closed(hole, 0.5 * spacing)
     lattice = triangular_lattice(np.array([-a, -b]), np.array([a, b]), spacing)
     lattice = lattice[points_in_polygon(lattice, outer) & ~points_in_polygon(lattice, hole)]
@@ -206,9 +220,13 @@ def one_opening_mesh(spacing: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
 def write_one_opening(path: str | Path, spacing: float = 0.3) -> Path:
     """Write the one-opening roof as OBJ in metres (see :func:`one_opening_mesh`)."""
     vertices, triangles = one_opening_mesh(spacing)
-    return write_obj(path, vertices, triangles,
-                     "one-opening roof, 16 x 12 m, crown 3.6 m, one elliptical opening "
-                     f"(Oval et al. 2018 topology)\nunits: metres; {len(triangles)} triangles")
+    return write_obj(
+        path,
+        vertices,
+        triangles,
+        "one-opening roof, 16 x 12 m, crown 3.6 m, one elliptical opening "
+        f"(Oval et al. 2018 topology)\nunits: metres; {len(triangles)} triangles",
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -239,9 +257,12 @@ def pavilion_height(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     s = math.radians(PAVILION_LOBE_ANGLE)
     # Re(((x + i y) e^{-i s})^3) = r^3 cos 3(t - s)
     u, v = x * math.cos(s) + y * math.sin(s), -x * math.sin(s) + y * math.cos(s)
-    cubic = (u ** 3 - 3 * u * v * v) / PAVILION_RADIUS ** 3
-    canopy = (PAVILION_CROWN - (PAVILION_CROWN - PAVILION_EDGE) * r2 / PAVILION_RADIUS ** 2
-              + PAVILION_EDGE_WAVE * cubic)
+    cubic = (u**3 - 3 * u * v * v) / PAVILION_RADIUS**3
+    canopy = (
+        PAVILION_CROWN
+        - (PAVILION_CROWN - PAVILION_EDGE) * r2 / PAVILION_RADIUS**2
+        + PAVILION_EDGE_WAVE * cubic
+    )
     factor = np.ones_like(x)
     for cx, cy in pavilion_supports():
         ri = np.hypot(x - cx, y - cy)
@@ -249,8 +270,7 @@ def pavilion_height(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return canopy * factor
 
 
-def pavilion_mesh(spacing: float = 0.32, rim_points: int = 40
-                  ) -> tuple[np.ndarray, np.ndarray]:
+def pavilion_mesh(spacing: float = 0.32, rim_points: int = 40) -> tuple[np.ndarray, np.ndarray]:
     """Vertices (n, 3) m and triangles (m, 3) of the pavilion; ``spacing`` in m.
 
     The domain is the lobed outline minus the three rim circles. Around each support, rings of
@@ -265,8 +285,11 @@ def pavilion_mesh(spacing: float = 0.32, rim_points: int = 40
     holes, rings = [], []
     for cx, cy in supports:
         angles = np.linspace(0.0, 2.0 * np.pi, rim_points, endpoint=False)
-        holes.append(np.stack([cx + SUPPORT_RADIUS * np.cos(angles),
-                               cy + SUPPORT_RADIUS * np.sin(angles)], axis=1))
+        holes.append(
+            np.stack(
+                [cx + SUPPORT_RADIUS * np.cos(angles), cy + SUPPORT_RADIUS * np.sin(angles)], axis=1
+            )
+        )
         radius, step = SUPPORT_RADIUS, 0.04 * spacing / 0.32
         while True:
             radius += step
@@ -275,8 +298,9 @@ def pavilion_mesh(spacing: float = 0.32, rim_points: int = 40
             count = max(rim_points, math.ceil(2 * np.pi * radius / spacing))
             # rings are aligned with the rim samples while the count stays the same
             angles = np.linspace(0.0, 2.0 * np.pi, count, endpoint=False)
-            rings.append(np.stack([cx + radius * np.cos(angles),
-                                   cy + radius * np.sin(angles)], axis=1))
+            rings.append(
+                np.stack([cx + radius * np.cos(angles), cy + radius * np.sin(angles)], axis=1)
+            )
             step = min(1.18 * step, spacing)
     rings = np.vstack(rings)
     box = np.abs(outer).max()
@@ -297,10 +321,14 @@ def pavilion_mesh(spacing: float = 0.32, rim_points: int = 40
 def write_pavilion(path: str | Path, spacing: float = 0.32, rim_points: int = 40) -> Path:
     """Write the pavilion as OBJ in metres (see :func:`pavilion_mesh`)."""
     vertices, triangles = pavilion_mesh(spacing, rim_points)
-    return write_obj(path, vertices, triangles,
-                     "pavilion after 'Chengdu Flowers' (thesis 7.1.2): about 20 m across, 5.8 m "
-                     "high,\nthree support openings, rim radius 0.7 m at z = 0\n"
-                     f"units: metres; {len(triangles)} triangles")
+    return write_obj(
+        path,
+        vertices,
+        triangles,
+        "pavilion after 'Chengdu Flowers' (thesis 7.1.2): about 20 m across, 5.8 m "
+        "high,\nthree support openings, rim radius 0.7 m at z = 0\n"
+        f"units: metres; {len(triangles)} triangles",
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -323,17 +351,25 @@ def formfound_mesh(divisions: int = 40) -> tuple[np.ndarray, np.ndarray]:
 
     n = divisions + 1
     index = np.arange(n * n).reshape(n, n)
-    bars = np.vstack([np.stack([index[:-1, :].ravel(), index[1:, :].ravel()], axis=1),
-                      np.stack([index[:, :-1].ravel(), index[:, 1:].ravel()], axis=1)])
+    bars = np.vstack(
+        [
+            np.stack([index[:-1, :].ravel(), index[1:, :].ravel()], axis=1),
+            np.stack([index[:, :-1].ravel(), index[:, 1:].ravel()], axis=1),
+        ]
+    )
     on_edge = np.zeros((n, n), dtype=bool)
     on_edge[[0, -1], :] = on_edge[:, [0, -1]] = True
     on_edge = on_edge.ravel()
     edge_bar = on_edge[bars[:, 0]] & on_edge[bars[:, 1]]
     q = np.where(edge_bar, FORMFOUND_EDGE_Q * divisions, 1.0)
     m = len(bars)
-    C = sparse.coo_matrix((np.concatenate([np.ones(m), -np.ones(m)]),
-                           (np.concatenate([np.arange(m)] * 2), bars.T.ravel())),
-                          shape=(m, n * n)).tocsr()
+    C = sparse.coo_matrix(
+        (
+            np.concatenate([np.ones(m), -np.ones(m)]),
+            (np.concatenate([np.arange(m)] * 2), bars.T.ravel()),
+        ),
+        shape=(m, n * n),
+    ).tocsr()
     D = (C.T @ sparse.diags(q) @ C).tocsr()
     corners = np.array([index[0, 0], index[0, -1], index[-1, -1], index[-1, 0]])
     free = np.setdiff1d(np.arange(n * n), corners)
@@ -344,14 +380,18 @@ def formfound_mesh(divisions: int = 40) -> tuple[np.ndarray, np.ndarray]:
     load[free, 2] = -1.0
     Dff, Dfc = D[free][:, free].tocsc(), D[free][:, corners]
     xyz[free] = spsolve(Dff, load[free] - Dfc @ xyz[corners]).reshape(-1, 3)
-    xyz[:, 2] *= FORMFOUND_RISE / xyz[:, 2].min()      # invert the hanging net
+    xyz[:, 2] *= FORMFOUND_RISE / xyz[:, 2].min()  # invert the hanging net
     v00 = index[:-1, :-1].ravel()
     quads = np.stack([v00, v00 + n, v00 + n + 1, v00 + 1], axis=1)
     d02 = np.linalg.norm(xyz[quads[:, 2]] - xyz[quads[:, 0]], axis=1)
     d13 = np.linalg.norm(xyz[quads[:, 3]] - xyz[quads[:, 1]], axis=1)
     split02 = d02 <= d13
-    triangles = np.vstack([np.where(split02[:, None], quads[:, [0, 1, 2]], quads[:, [0, 1, 3]]),
-                           np.where(split02[:, None], quads[:, [0, 2, 3]], quads[:, [1, 2, 3]])])
+    triangles = np.vstack(
+        [
+            np.where(split02[:, None], quads[:, [0, 1, 2]], quads[:, [0, 1, 3]]),
+            np.where(split02[:, None], quads[:, [0, 2, 3]], quads[:, [1, 2, 3]]),
+        ]
+    )
     # counter-clockwise seen from above (outer side of the vault)
     a, b, c = (xyz[triangles[:, k], :2] for k in range(3))
     signed = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
@@ -362,11 +402,15 @@ def formfound_mesh(divisions: int = 40) -> tuple[np.ndarray, np.ndarray]:
 def write_formfound(path: str | Path, divisions: int = 40) -> Path:
     """Write the form-found shell as OBJ in metres (see :func:`formfound_mesh`)."""
     vertices, triangles = formfound_mesh(divisions)
-    return write_obj(path, vertices, triangles,
-                     "form-found shell on four corner supports (force density method), "
-                     "14 x 14 m, rise 4 m\n"
-                     f"units: metres; {len(triangles)} triangles from a {divisions} x "
-                     f"{divisions} quad net")
+    return write_obj(
+        path,
+        vertices,
+        triangles,
+        "form-found shell on four corner supports (force density method), "
+        "14 x 14 m, rise 4 m\n"
+        f"units: metres; {len(triangles)} triangles from a {divisions} x "
+        f"{divisions} quad net",
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -375,8 +419,9 @@ def write_formfound(path: str | Path, divisions: int = 40) -> Path:
 def patch_height(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Saddle height z(x, y), m: a quadratic, so a bicubic B-spline reproduces it exactly."""
     a, b = PATCH_HALF
-    return PATCH_Z0 + PATCH_CX * (x / a) ** 2 - PATCH_CY * (y / b) ** 2 + PATCH_CXY * (x / a) * (
-        y / b)
+    return (
+        PATCH_Z0 + PATCH_CX * (x / a) ** 2 - PATCH_CY * (y / b) ** 2 + PATCH_CXY * (x / a) * (y / b)
+    )
 
 
 def patch_mesh(nx: int = 50, ny: int = 40) -> tuple[np.ndarray, np.ndarray]:
@@ -387,17 +432,25 @@ def patch_mesh(nx: int = 50, ny: int = 40) -> tuple[np.ndarray, np.ndarray]:
     i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
     v00 = (i * (ny + 1) + j).ravel()
     # x then y: counter-clockwise seen from above
-    triangles = np.vstack([np.stack([v00, v00 + ny + 1, v00 + ny + 2], axis=1),
-                           np.stack([v00, v00 + ny + 2, v00 + 1], axis=1)])
+    triangles = np.vstack(
+        [
+            np.stack([v00, v00 + ny + 1, v00 + ny + 2], axis=1),
+            np.stack([v00, v00 + ny + 2, v00 + 1], axis=1),
+        ]
+    )
     return vertices, triangles
 
 
 def write_patch_obj(path: str | Path, nx: int = 50, ny: int = 40) -> Path:
     """Write the saddle patch as OBJ in metres (see :func:`patch_mesh`)."""
     vertices, triangles = patch_mesh(nx, ny)
-    return write_obj(path, vertices, triangles,
-                     "four-sided saddle patch, 10 x 8 m, z from 1.5 to 4.9 m\n"
-                     f"units: metres; {len(triangles)} triangles")
+    return write_obj(
+        path,
+        vertices,
+        triangles,
+        "four-sided saddle patch, 10 x 8 m, z from 1.5 to 4.9 m\n"
+        f"units: metres; {len(triangles)} triangles",
+    )
 
 
 def write_patch_step(path: str | Path, nx: int = 10, ny: int = 8) -> Path:
@@ -528,14 +581,33 @@ report = true
 
 #: per example: title, input file, units (None: the file carries them), panel size
 JOBS = {
-    "one-opening": ("one-opening roof, 16 x 12 m, one elliptical opening (skeleton method)",
-                    "one-opening.obj", "m", "1.2 m"),
-    "pavilion": (("'Chengdu Flowers'-like pavilion, about 20 m across, three support "
-                  "openings (skeleton method)"), "pavilion.obj", "m", "1.0 m"),
-    "formfound": ("form-found shell on four corner supports, 14 x 14 m (grid method on a mesh)",
-                  "formfound.obj", "m", "1.2 m"),
-    "patch": ("four-sided saddle patch, 10 x 8 m, one B-spline face (grid in its parameters)",
-              "patch.step", None, "1.2 m"),
+    "one-opening": (
+        "one-opening roof, 16 x 12 m, one elliptical opening (skeleton method)",
+        "one-opening.obj",
+        "m",
+        "1.2 m",
+    ),
+    "pavilion": (
+        (
+            "'Chengdu Flowers'-like pavilion, about 20 m across, three support "
+            "openings (skeleton method)"
+        ),
+        "pavilion.obj",
+        "m",
+        "1.0 m",
+    ),
+    "formfound": (
+        "form-found shell on four corner supports, 14 x 14 m (grid method on a mesh)",
+        "formfound.obj",
+        "m",
+        "1.2 m",
+    ),
+    "patch": (
+        "four-sided saddle patch, 10 x 8 m, one B-spline face (grid in its parameters)",
+        "patch.step",
+        None,
+        "1.2 m",
+    ),
 }
 
 
@@ -548,28 +620,38 @@ def job_text(name: str) -> str:
 
     if units is None:
         key = '# units = "m"'
-        note = (f"# STEP carries its units; {source.rsplit('.', 1)[0]}.obj (the same shape as a "
-                f'mesh) needs "m"')
+        note = (
+            f"# STEP carries its units; {source.rsplit('.', 1)[0]}.obj (the same shape as a "
+            f'mesh) needs "m"'
+        )
     else:
         key = f'units = "{units}"'
         note = "# length unit of the mesh coordinates: m, cm or mm"
     units_line = key + pad(key) + note
 
     return JOB_TEMPLATE.format(
-        title=title, input=source, input_pad=pad(f'path = "{source}"'), units_line=units_line,
-        panel_size=panel_size, size_pad=pad(f'panel_size = "{panel_size}"'), name=name,
-        dir_pad=pad(f'# dir = "{name}-fabpanel"', 35))
+        title=title,
+        input=source,
+        input_pad=pad(f'path = "{source}"'),
+        units_line=units_line,
+        panel_size=panel_size,
+        size_pad=pad(f'panel_size = "{panel_size}"'),
+        name=name,
+        dir_pad=pad(f'# dir = "{name}-fabpanel"', 35),
+    )
 
 
 def write_all(folder: str | Path) -> list[Path]:
     """Write every example shape and its job file into ``folder``."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    written = [write_one_opening(folder / "one-opening.obj"),
-               write_pavilion(folder / "pavilion.obj"),
-               write_formfound(folder / "formfound.obj"),
-               write_patch_obj(folder / "patch.obj"),
-               write_patch_step(folder / "patch.step")]
+    written = [
+        write_one_opening(folder / "one-opening.obj"),
+        write_pavilion(folder / "pavilion.obj"),
+        write_formfound(folder / "formfound.obj"),
+        write_patch_obj(folder / "patch.obj"),
+        write_patch_step(folder / "patch.step"),
+    ]
     for name in JOBS:
         path = folder / f"{name}.toml"
         path.write_text(job_text(name))

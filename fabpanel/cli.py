@@ -14,14 +14,15 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any, cast
 
 import click
 
 from .errors import FabpanelError, InputError, Stopped
-from .job import STAGES, Job
+from .job import STAGES, Job, Stage
 
-TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"     # package data: fabpanel init
-EXAMPLE_DIR = Path(__file__).resolve().parent / "examples"       # package data: fabpanel demo
+TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"  # package data: fabpanel init
+EXAMPLE_DIR = Path(__file__).resolve().parent / "examples"  # package data: fabpanel demo
 JOB_SUFFIXES = {".toml"}
 #: exit code of a run that finished but left error-level issues (without --allow-issues)
 EXIT_ISSUES = 3
@@ -33,16 +34,20 @@ class _Reporter:
     def __init__(self, quiet: bool):
         self.quiet = quiet
         self.interactive = sys.stderr.isatty() and not quiet
-        self._progress = None
-        self._task = None
+        self._progress: Any = None  # rich.progress.Progress on a terminal
+        self._task: Any = None
         if self.interactive:
             from rich.console import Console
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-            self._progress = Progress(TextColumn("{task.description:<10}"), BarColumn(),
-                                      TextColumn("{task.completed}/{task.total}"),
-                                      TimeElapsedColumn(), console=Console(stderr=True),
-                                      transient=True)
+            self._progress = Progress(
+                TextColumn("{task.description:<10}"),
+                BarColumn(),
+                TextColumn("{task.completed}/{task.total}"),
+                TimeElapsedColumn(),
+                console=Console(stderr=True),
+                transient=True,
+            )
             self._progress.start()
 
     def start(self, stage: str, total: int | None) -> None:
@@ -61,6 +66,10 @@ class _Reporter:
         if not self.quiet:
             click.echo(f"{stage:<10} {seconds:6.1f} s  {note}", err=True)
 
+    def note(self, text: str) -> None:
+        if not self.quiet:
+            click.echo(f"note: {text}", err=True)
+
     def close(self) -> None:
         if self._progress is not None:
             self._progress.stop()
@@ -69,8 +78,11 @@ class _Reporter:
 def _fail(err: BaseException, debug: bool) -> None:
     if isinstance(err, KeyboardInterrupt):
         signum = getattr(err, "signum", signal.SIGINT)
-        click.echo(f"stopped by {signal.Signals(signum).name}: queued work cancelled, workers "
-                   f"stopped, nothing written", err=True)
+        click.echo(
+            f"stopped by {signal.Signals(signum).name}: queued work cancelled, workers "
+            f"stopped, nothing written",
+            err=True,
+        )
         # the run has cleaned up (workers, staging folder); skip the interpreter's teardown,
         # which spends seconds collecting the run's geometry
         sys.stdout.flush()
@@ -81,8 +93,11 @@ def _fail(err: BaseException, debug: bool) -> None:
     if isinstance(err, FabpanelError):
         click.echo(f"error: {err}", err=True)
         sys.exit(err.exit_code)
-    click.echo(f"internal error: {type(err).__name__}: {err} (run with --debug for the "
-               f"traceback and report it)", err=True)
+    click.echo(
+        f"internal error: {type(err).__name__}: {err} (run with --debug for the "
+        f"traceback and report it)",
+        err=True,
+    )
     sys.exit(1)
 
 
@@ -104,8 +119,11 @@ def _stop_on_signals() -> Iterator[None]:
 
 def _quiet_logging(debug: bool) -> None:
     """Library log lines reach stderr only with --debug: findings are issues, errors one line."""
-    logging.basicConfig(level=logging.INFO if debug else logging.CRITICAL + 1,
-                        format="%(levelname)s %(name)s: %(message)s", force=True)
+    logging.basicConfig(
+        level=logging.INFO if debug else logging.CRITICAL + 1,
+        format="%(levelname)s %(name)s: %(message)s",
+        force=True,
+    )
     logging.captureWarnings(True)
 
 
@@ -134,9 +152,19 @@ def _job_for(source: Path, units: str | None, panel_size: str | None, quiet: boo
     return job
 
 
-def export_run(source: Path, out: Path | None, units: str | None, panel_size: str | None,
-               until: str, jobs: int | None, force: bool, quiet: bool,
-               require_fem: bool = False, allow_issues: bool = False, debug: bool = False):
+def export_run(
+    source: Path,
+    out: Path | None,
+    units: str | None,
+    panel_size: str | None,
+    until: str,
+    jobs: int | None,
+    force: bool,
+    quiet: bool,
+    require_fem: bool = False,
+    allow_issues: bool = False,
+    debug: bool = False,
+):
     """The ``export`` command: run, report, and exit 3 when error-level issues remain."""
     from .pipeline import run
 
@@ -146,7 +174,9 @@ def export_run(source: Path, out: Path | None, units: str | None, panel_size: st
         job = job.replace(structure={"required": True})
     reporter = _Reporter(quiet)
     try:
-        result = run(job, out_dir=out, until=until, jobs=jobs, force=force, progress=reporter)
+        result = run(
+            job, out_dir=out, until=cast(Stage, until), jobs=jobs, force=force, progress=reporter
+        )
     finally:
         reporter.close()
     errors = [i for i in result.issues if i.severity == "error"]
@@ -156,9 +186,12 @@ def export_run(source: Path, out: Path | None, units: str | None, panel_size: st
         click.echo(f"  issue: {issue.item + ': ' if issue.item else ''}{issue.message}", err=True)
     if errors and not allow_issues:
         more = f" ({len(errors) - 10} more)" if len(errors) > 10 else ""
-        click.echo(f"error: finished with {len(errors)} error-level issue(s){more}, written to "
-                   f"{result.out_dir}/manifest.json; fix them or pass --allow-issues to accept "
-                   f"them (exit 3)", err=True)
+        click.echo(
+            f"error: finished with {len(errors)} error-level issue(s){more}, written to "
+            f"{result.out_dir}/manifest.json; fix them or pass --allow-issues to accept "
+            f"them (exit 3)",
+            err=True,
+        )
         sys.exit(EXIT_ISSUES)
     return result
 
@@ -168,8 +201,10 @@ def _print_summary(result) -> None:
     parts = summary.get("parts", {})
     click.echo(f"wrote {result.out_dir}", err=True)
     if parts:
-        click.echo(f"  {summary['panels']['count']} panels, {parts['count']} parts, "
-                   f"{parts['mass_kg']} kg", err=True)
+        click.echo(
+            f"  {summary['panels']['count']} panels, {parts['count']} parts, {parts['mass_kg']} kg",
+            err=True,
+        )
     if "nests" in summary:
         click.echo(f"  {summary['nests']['plates']} plates", err=True)
     if "structure" in result.stages_run and result.structure is not None:
@@ -179,22 +214,50 @@ def _print_summary(result) -> None:
 
 
 _export_options = [
-    click.option("--out", "out", type=click.Path(path_type=Path), default=None,
-                 help="Output folder (default: from the job, or <input>-fabpanel)."),
-    click.option("--units", type=click.Choice(["m", "cm", "mm"]), default=None,
-                 help="Length unit of the input coordinates (meshes carry none)."),
-    click.option("--panel-size", default=None, metavar="LENGTH",
-                 help='Target panel size, with a unit: "1.2 m".'),
-    click.option("--until", type=click.Choice(STAGES), default="structure",
-                 help="Stop after this stage; its outputs and those before are written."),
-    click.option("--jobs", type=click.IntRange(min=1), default=None,
-                 help="Worker processes for per-panel work (default: all cores)."),
+    click.option(
+        "--out",
+        "out",
+        type=click.Path(path_type=Path),
+        default=None,
+        help="Output folder (default: from the job, or <input>-fabpanel).",
+    ),
+    click.option(
+        "--units",
+        type=click.Choice(["m", "cm", "mm"]),
+        default=None,
+        help="Length unit of the input coordinates (meshes carry none).",
+    ),
+    click.option(
+        "--panel-size",
+        default=None,
+        metavar="LENGTH",
+        help='Target panel size, with a unit: "1.2 m".',
+    ),
+    click.option(
+        "--until",
+        type=click.Choice(STAGES),
+        default="structure",
+        help="Stop after this stage; its outputs and those before are written.",
+    ),
+    click.option(
+        "--jobs",
+        type=click.IntRange(min=1),
+        default=None,
+        help="Worker processes for per-panel work (default: all cores).",
+    ),
     click.option("--force", is_flag=True, help="Replace an existing output folder."),
-    click.option("--require-fem", "require_fem", is_flag=True,
-                 help="Fail (exit 2) when CalculiX is missing instead of skipping the "
-                      "structural check."),
-    click.option("--allow-issues", "allow_issues", is_flag=True,
-                 help="Exit 0 even when error-level issues remain (default: exit 3)."),
+    click.option(
+        "--require-fem",
+        "require_fem",
+        is_flag=True,
+        help="Fail (exit 2) when CalculiX is missing instead of skipping the structural check.",
+    ),
+    click.option(
+        "--allow-issues",
+        "allow_issues",
+        is_flag=True,
+        help="Exit 0 even when error-level issues remain (default: exit 3).",
+    ),
     click.option("--quiet", is_flag=True, help="Print nothing but errors."),
     click.option("--debug", is_flag=True, help="Show tracebacks and library log lines."),
 ]
@@ -209,22 +272,37 @@ def _with_export_options(func):
 @main.command()
 @click.argument("source", type=click.Path(path_type=Path))
 @_with_export_options
-def export(source, out, units, panel_size, until, jobs, force, require_fem, allow_issues, quiet,
-           debug):
+def export(
+    source, out, units, panel_size, until, jobs, force, require_fem, allow_issues, quiet, debug
+):
     """Run the pipeline on INPUT (a surface file) or JOB.toml and write the output folder."""
     try:
         with _stop_on_signals():
-            export_run(source, out, units, panel_size, until, jobs, force, quiet, require_fem,
-                       allow_issues, debug)
+            export_run(
+                source,
+                out,
+                units,
+                panel_size,
+                until,
+                jobs,
+                force,
+                quiet,
+                require_fem,
+                allow_issues,
+                debug,
+            )
     except (Exception, KeyboardInterrupt) as err:  # noqa: BLE001 - every error is an exit code
         _fail(err, debug)
 
 
 @main.command()
 @click.argument("path", type=click.Path(path_type=Path), default=Path("fabpanel.toml"))
-@click.option("--template", default="sandwich-pavilion", show_default=True,
-              help="Template name: " + ", ".join(sorted(p.stem for p in
-                                                       TEMPLATE_DIR.glob("*.toml"))))
+@click.option(
+    "--template",
+    default="sandwich-pavilion",
+    show_default=True,
+    help="Template name: " + ", ".join(sorted(p.stem for p in TEMPLATE_DIR.glob("*.toml"))),
+)
 @click.option("--force", is_flag=True, help="Overwrite an existing file.")
 @click.option("--debug", is_flag=True, help="Show tracebacks.")
 def init(path, template, force, debug):
@@ -237,7 +315,7 @@ def init(path, template, force, debug):
         if path.exists() and not force:
             raise InputError(f"{path} exists; pass --force to overwrite it or choose another path")
         text = source.read_text(encoding="utf-8")
-        Job.from_dict(__import__("tomllib").loads(text))      # templates must stay valid
+        Job.from_dict(__import__("tomllib").loads(text))  # templates must stay valid
         path.write_text(text, encoding="utf-8")
         click.echo(f"wrote {path} (template {template})", err=True)
     except Exception as err:  # noqa: BLE001
@@ -246,8 +324,12 @@ def init(path, template, force, debug):
 
 @main.command()
 @click.argument("source", type=click.Path(path_type=Path))
-@click.option("--units", type=click.Choice(["m", "cm", "mm"]), default=None,
-              help="Length unit of the input coordinates (meshes carry none).")
+@click.option(
+    "--units",
+    type=click.Choice(["m", "cm", "mm"]),
+    default=None,
+    help="Length unit of the input coordinates (meshes carry none).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @click.option("--debug", is_flag=True, help="Show tracebacks.")
 def inspect(source, units, as_json, debug):
@@ -284,12 +366,13 @@ def demo(folder, force, jobs, quiet, debug):
         # job and STEP are package data (fabpanel/examples); outputs go to FOLDER only
         job_path = EXAMPLE_DIR / "barrel-vault.toml"
         if not (EXAMPLE_DIR / "barrel-vault.step").is_file():
-            raise InputError(f"the demo surface {EXAMPLE_DIR / 'barrel-vault.step'} is missing; "
-                             "reinstall fabpanel (in a checkout: python -m "
-                             "fabpanel.examples.barrel_vault)")
+            raise InputError(
+                f"the demo surface {EXAMPLE_DIR / 'barrel-vault.step'} is missing; "
+                "reinstall fabpanel (in a checkout: python -m "
+                "fabpanel.examples.barrel_vault)"
+            )
         with _stop_on_signals():
-            export_run(job_path, folder, None, None, "structure", jobs, force, quiet,
-                       debug=debug)
+            export_run(job_path, folder, None, None, "structure", jobs, force, quiet, debug=debug)
         if not quiet:
             click.echo(f"open {folder / 'report' / 'index.html'}", err=True)
     except (Exception, KeyboardInterrupt) as err:  # noqa: BLE001

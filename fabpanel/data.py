@@ -1,7 +1,8 @@
 """The dataclasses carried from stage to stage.
 
-Every length is in millimetres in the world frame of the design surface (after the input's unit
-conversion) unless a field says otherwise. Arrays are numpy arrays; shapes are given in the field
+Every length is in millimetres in the local frame of the design surface (after the input's unit
+conversion; the design's own coordinates are ``local + Surface.origin``) unless a field says
+otherwise. Arrays are numpy arrays; shapes are given in the field
 documentation as ``(n, 3) float``. The dataclasses are frozen: stages return new objects and never
 mutate their input. ``to_dict()`` gives JSON-ready data (arrays summarised or listed) for the
 manifest.
@@ -53,6 +54,11 @@ class Surface:
     brep : bytes or None
         for B-rep input, the exact surface as OCCT BREP text (a face or shell, mm); kept for exact
         closeness queries and for grids in the face's own parameters.
+    origin : (3,) float
+        mm: where the local frame's origin lies in the design's own coordinates. ``vertices``
+        and ``brep`` are local (``world = local + origin``): :func:`~fabpanel.load_surface`
+        recentres every surface (:mod:`fabpanel.surface.frame`), and the writers of model files
+        add the origin back.
     """
 
     vertices: np.ndarray
@@ -62,13 +68,16 @@ class Surface:
     format: str
     units: str
     brep: bytes | None = None
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     @property
     def area(self) -> float:
         """Surface area, mm2."""
         tri = self.vertices[self.faces]
-        return float(0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
-                                          axis=1).sum())
+        return float(
+            0.5
+            * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
+        )
 
     @property
     def bounds(self) -> np.ndarray:
@@ -80,11 +89,19 @@ class Surface:
         return max(len(self.boundary_loops) - 1, 0)
 
     def to_dict(self) -> dict:
-        return {"source": str(self.source), "format": self.format, "units": self.units,
-                "vertices": len(self.vertices), "faces": len(self.faces),
-                "bounds_mm": _round(self.bounds, 3), "area_m2": round(self.area / 1e6, 6),
-                "boundary_loops": len(self.boundary_loops), "openings": self.openings,
-                "exact_brep": self.brep is not None}
+        return {
+            "source": str(self.source),
+            "format": self.format,
+            "units": self.units,
+            "vertices": len(self.vertices),
+            "faces": len(self.faces),
+            "bounds_mm": _round(self.bounds + self.origin, 3),
+            "origin_mm": _round(self.origin, 3),
+            "area_m2": round(self.area / 1e6, 6),
+            "boundary_loops": len(self.boundary_loops),
+            "openings": self.openings,
+            "exact_brep": self.brep is not None,
+        }
 
 
 # --------------------------------------------------------------------------------------------
@@ -109,6 +126,9 @@ class PanelLayout:
     parameters : (m, 4, 2) float or None
         for layouts made in a surface parameter domain, each corner's (u, v); lets the next stage
         sample panels exactly on a B-rep surface.
+    origin : (3,) float
+        mm, the surface's :attr:`Surface.origin`: ``vertices`` (and every later stage's points)
+        are local, the model files are written at ``local + origin``.
     """
 
     vertices: np.ndarray
@@ -118,6 +138,7 @@ class PanelLayout:
     metrics: dict = field(default_factory=dict)
     parameters: np.ndarray | None = None
     issues: tuple[Issue, ...] = ()
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     @property
     def edges(self) -> np.ndarray:
@@ -147,8 +168,11 @@ class PanelLayout:
         return {
             "method": self.method,
             "panels": [
-                {"id": pid, "corners_mm": _round(self.vertices[quad], 3),
-                 "neighbours": [self.panel_ids[n] if n >= 0 else None for n in neighbours[i]]}
+                {
+                    "id": pid,
+                    "corners_mm": _round(self.vertices[quad], 3),
+                    "neighbours": [self.panel_ids[n] if n >= 0 else None for n in neighbours[i]],
+                }
                 for i, (pid, quad) in enumerate(zip(self.panel_ids, self.quads))
             ],
             "metrics": self.metrics,
@@ -213,9 +237,12 @@ class DevelopedPanels:
         return [grid[:, 0], grid[-1, :], grid[::-1, -1], grid[0, ::-1]][side]
 
     def to_dict(self) -> dict:
-        return {"method": self.method, "samples_per_side": int(self.samples.shape[1]),
-                "classes": dict(zip(self.panel_ids, self.classes)),
-                "metrics": self.metrics}
+        return {
+            "method": self.method,
+            "samples_per_side": int(self.samples.shape[1]),
+            "classes": dict(zip(self.panel_ids, self.classes)),
+            "metrics": self.metrics,
+        }
 
 
 # --------------------------------------------------------------------------------------------
@@ -278,11 +305,18 @@ class Part:
     files: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
-        return {"id": self.id, "kind": self.kind, "panel": self.panel_id,
-                "material": self.material, "thickness_mm": self.thickness,
-                "volume_mm3": round(self.volume, 1), "area_mm2": round(self.area, 1),
-                "mass_kg": round(self.mass, 4), "holes": len(self.holes),
-                "files": list(self.files)}
+        return {
+            "id": self.id,
+            "kind": self.kind,
+            "panel": self.panel_id,
+            "material": self.material,
+            "thickness_mm": self.thickness,
+            "volume_mm3": round(self.volume, 1),
+            "area_mm2": round(self.area, 1),
+            "mass_kg": round(self.mass, 4),
+            "holes": len(self.holes),
+            "files": list(self.files),
+        }
 
 
 @dataclass(frozen=True)
@@ -362,13 +396,20 @@ class FlatPart:
         from .geom.polygon import polygon_area
 
         net = abs(polygon_area(self.outline)) - sum(abs(polygon_area(h)) for h in self.holes)
-        return float(net - sum(np.pi * h.diameter ** 2 / 4
-                               for h in self.round_holes + self.drill_holes))
+        return float(
+            net - sum(np.pi * h.diameter**2 / 4 for h in self.round_holes + self.drill_holes)
+        )
 
     def to_dict(self) -> dict:
-        record = {"id": self.id, "kind": self.kind, "panel": self.panel_id,
-                  "thickness_mm": self.thickness, "area_mm2": round(self.area, 1),
-                  "max_strain": float(self.max_strain), "files": list(self.files)}
+        record = {
+            "id": self.id,
+            "kind": self.kind,
+            "panel": self.panel_id,
+            "thickness_mm": self.thickness,
+            "area_mm2": round(self.area, 1),
+            "max_strain": float(self.max_strain),
+            "files": list(self.files),
+        }
         if self.forming:
             record["forming"] = self.forming
         if self.edge_lengths_flat is not None:
@@ -415,9 +456,15 @@ class Plate:
         return f"plate-{self.index:03d}"
 
     def to_dict(self) -> dict:
-        return {"plate": self.name, "material": self.material, "thickness_mm": self.thickness,
-                "size_mm": list(self.size), "utilisation": round(self.utilisation, 4),
-                "placements": [p.to_dict() for p in self.placements], "files": list(self.files)}
+        return {
+            "plate": self.name,
+            "material": self.material,
+            "thickness_mm": self.thickness,
+            "size_mm": list(self.size),
+            "utilisation": round(self.utilisation, 4),
+            "placements": [p.to_dict() for p in self.placements],
+            "files": list(self.files),
+        }
 
 
 @dataclass(frozen=True)

@@ -77,5 +77,9 @@ class Issue:
     severity: Severity = "warning"
 
     def to_dict(self) -> dict:
-        return {"code": self.code, "message": self.message, "item": self.item,
-                "severity": self.severity}
+        return {
+            "code": self.code,
+            "message": self.message,
+            "item": self.item,
+            "severity": self.severity,
+        }

@@ -37,8 +37,10 @@ from .units import as_written, format_like, format_number, format_quantity, pars
 
 
 def _quantity(dimension: str) -> list[Any]:
-    return [BeforeValidator(lambda value: parse_quantity(value, dimension)),
-            PlainSerializer(lambda value: format_quantity(value, dimension), return_type=str)]
+    return [
+        BeforeValidator(lambda value: parse_quantity(value, dimension)),
+        PlainSerializer(lambda value: format_quantity(value, dimension), return_type=str),
+    ]
 
 
 def _default(text: str, dimension: str = "length") -> float:
@@ -142,8 +144,9 @@ class _Written:
         was written (then the user's value is the one to look at)."""
         if self.given(other) and not self.given(key):
             key, other = other, key
-        return _RuleError(key, f"{self(key)} against {self.label(other)} {self(other)}: "
-                               f"{rule}; {fix}")
+        return _RuleError(
+            key, f"{self(key)} against {self.label(other)} {self(other)}: {rule}; {fix}"
+        )
 
 
 def _numeric(annotation: Any) -> bool:
@@ -167,9 +170,12 @@ class _Section(BaseModel):
         # defaults are not validated: a quantity default written as text would stay text
         for name, field in cls.model_fields.items():
             if isinstance(field.default, str) and any(
-                    isinstance(meta, BeforeValidator) for meta in field.metadata):
-                raise TypeError(f"{cls.__name__}.{name}: write the default as "
-                                f"_default({field.default!r}, ...), in internal units")
+                isinstance(meta, BeforeValidator) for meta in field.metadata
+            ):
+                raise TypeError(
+                    f"{cls.__name__}.{name}: write the default as "
+                    f"_default({field.default!r}, ...), in internal units"
+                )
 
     @field_validator("*", mode="before")
     @classmethod
@@ -177,13 +183,18 @@ class _Section(BaseModel):
         # pydantic reads TOML true/false as 1/0 where a number is expected (quantities are
         # refused by parse_quantity, with their unit in the message)
         field = cls.model_fields.get(info.field_name or "")
-        if field is None or not _numeric(field.annotation) or any(
-                isinstance(meta, BeforeValidator) for meta in field.metadata):
+        if (
+            field is None
+            or not _numeric(field.annotation)
+            or any(isinstance(meta, BeforeValidator) for meta in field.metadata)
+        ):
             return value
-        if isinstance(value, bool) or (isinstance(value, (list, tuple))
-                                       and any(isinstance(item, bool) for item in value)):
-            raise ValueError(f"{as_written(value)} holds a yes/no value (true/false); write "
-                             "a number here")
+        if isinstance(value, bool) or (
+            isinstance(value, (list, tuple)) and any(isinstance(item, bool) for item in value)
+        ):
+            raise ValueError(
+                f"{as_written(value)} holds a yes/no value (true/false); write a number here"
+            )
         return value
 
     @model_validator(mode="wrap")
@@ -209,8 +220,8 @@ class InputSection(_Section):
     units: Literal["m", "cm", "mm"] | None = None
     #: neighbouring triangles of the (welded) surface mesh whose normals differ by more than
     #: this are a crease and the input is refused (degrees). 45 is twice the sharpest fold of the
-    #: examples (20 degrees, pavilion.obj at its supports) and stops a right-angled fold; the
-    #: same value as fabpanel.surface.checks.CREASE_ANGLE
+    #: examples (20 degrees, on pavilion.obj) and stops a right-angled fold; the same value as
+    #: fabpanel.surface.checks.CREASE_ANGLE
     crease_angle: float = Field(default=45.0, gt=0, le=180)
 
 
@@ -245,8 +256,9 @@ class PanelizeSection(_Section):
 
     def _check(self, w: _Written) -> None:
         if self.method == "layout" and not self.layout:
-            raise _RuleError("layout", 'method "layout" needs the quad mesh: set layout = '
-                             '"my-layout.obj"')
+            raise _RuleError(
+                "layout", 'method "layout" needs the quad mesh: set layout = "my-layout.obj"'
+            )
 
     @property
     def sizes_panels(self) -> bool:
@@ -342,56 +354,104 @@ class SandwichSection(_Section):
             return  # cladding: one sheet, no ribs, no bolts
         h, t_rib, bolts = self.rib_height, self.rib_thickness, self.bolts
         d0 = bolts.diameter
-        plates = [("sheet_thickness", self.sheet_thickness, "sheets"),
-                  ("bottom_sheet_thickness", self.bottom_sheet_thickness, "sheets"),
-                  ("rib_thickness", t_rib, "ribs"),
-                  ("stiffener_thickness", self.stiffener_thickness, "stiffeners")]
+        plates = [
+            ("sheet_thickness", self.sheet_thickness, "sheets"),
+            ("bottom_sheet_thickness", self.bottom_sheet_thickness, "sheets"),
+            ("rib_thickness", t_rib, "ribs"),
+            ("stiffener_thickness", self.stiffener_thickness, "stiffeners"),
+        ]
         for key, t, what in plates:
             if t is not None and t > MAX_PLATE_PER_RIB_HEIGHT * h:
-                raise w.conflict(key, "rib_height", (
-                    f"{what} are at most half the rib height (the ribs are the sandwich's core "
-                    "and hold the bolts between the sheets)"), (
-                    f"use {what} of at most {w.like('rib_height', MAX_PLATE_PER_RIB_HEIGHT * h)}"
-                    f" or a rib_height of at least {w.like(key, t / MAX_PLATE_PER_RIB_HEIGHT)}"))
+                raise w.conflict(
+                    key,
+                    "rib_height",
+                    (
+                        f"{what} are at most half the rib height (the ribs are the sandwich's core "
+                        "and hold the bolts between the sheets)"
+                    ),
+                    (
+                        f"use {what} of at most {w.like('rib_height', MAX_PLATE_PER_RIB_HEIGHT * h)}"
+                        f" or a rib_height of at least {w.like(key, t / MAX_PLATE_PER_RIB_HEIGHT)}"
+                    ),
+                )
         if h < 2 * MIN_EDGE_DISTANCE * d0:
-            raise w.conflict("bolts.diameter", "rib_height", (
-                "a bolt hole sits at mid-height of the rib and needs 1.2 x its diameter to both "
-                "sheets (EN 1993-1-8 Table 3.3, e2 >= 1.2 d0): a rib height of at least 2.4 d0"),
-                (f"use holes of at most {w.like('bolts.diameter', h / 2 / MIN_EDGE_DISTANCE)} "
-                 f"or a rib_height of at least {w.like('rib_height', 2 * MIN_EDGE_DISTANCE * d0)}"))
+            raise w.conflict(
+                "bolts.diameter",
+                "rib_height",
+                (
+                    "a bolt hole sits at mid-height of the rib and needs 1.2 x its diameter to both "
+                    "sheets (EN 1993-1-8 Table 3.3, e2 >= 1.2 d0): a rib height of at least 2.4 d0"
+                ),
+                (
+                    f"use holes of at most {w.like('bolts.diameter', h / 2 / MIN_EDGE_DISTANCE)} "
+                    f"or a rib_height of at least {w.like('rib_height', 2 * MIN_EDGE_DISTANCE * d0)}"
+                ),
+            )
         if d0 > MAX_HOLE_PER_RIB_THICKNESS * t_rib:
-            raise w.conflict("bolts.diameter", "rib_thickness", (
-                f"a hole larger than {MAX_HOLE_PER_RIB_THICKNESS:g} x the rib thickness is "
-                "refused: the rib's bearing resistance is then under half the bolt's shear "
-                "resistance, the bolt is oversized for the plates it clamps"), (
-                f"use holes of at most "
-                f"{w.like('bolts.diameter', MAX_HOLE_PER_RIB_THICKNESS * t_rib)} or ribs of "
-                f"at least {w.like('rib_thickness', d0 / MAX_HOLE_PER_RIB_THICKNESS)}"))
+            raise w.conflict(
+                "bolts.diameter",
+                "rib_thickness",
+                (
+                    f"a hole larger than {MAX_HOLE_PER_RIB_THICKNESS:g} x the rib thickness is "
+                    "refused: the rib's bearing resistance is then under half the bolt's shear "
+                    "resistance, the bolt is oversized for the plates it clamps"
+                ),
+                (
+                    f"use holes of at most "
+                    f"{w.like('bolts.diameter', MAX_HOLE_PER_RIB_THICKNESS * t_rib)} or ribs of "
+                    f"at least {w.like('rib_thickness', d0 / MAX_HOLE_PER_RIB_THICKNESS)}"
+                ),
+            )
         for key, factor, rule in (
-                ("bolts.edge_distance", MIN_EDGE_DISTANCE, "e1, e2 >= 1.2 d0"),
-                ("bolts.spacing", MIN_BOLT_SPACING, ("p1 >= 2.2 d0 along the rib, p2 >= 2.4 "
-                                                     "d0 across it; a rib joint has both"))):
+            ("bolts.edge_distance", MIN_EDGE_DISTANCE, "e1, e2 >= 1.2 d0"),
+            (
+                "bolts.spacing",
+                MIN_BOLT_SPACING,
+                ("p1 >= 2.2 d0 along the rib, p2 >= 2.4 d0 across it; a rib joint has both"),
+            ),
+        ):
             value = getattr(bolts, key.split(".")[1])
             if value < factor * d0:
-                raise w.conflict(key, "bolts.diameter", (
-                    f"EN 1993-1-8 Table 3.3 asks for at least {factor:g} x the hole diameter "
-                    f"({rule})"), (
-                    f"use at least {w.like(key, factor * d0)} or holes of at most "
-                    f"{w.like('bolts.diameter', value / factor)}"))
+                raise w.conflict(
+                    key,
+                    "bolts.diameter",
+                    (
+                        f"EN 1993-1-8 Table 3.3 asks for at least {factor:g} x the hole diameter "
+                        f"({rule})"
+                    ),
+                    (
+                        f"use at least {w.like(key, factor * d0)} or holes of at most "
+                        f"{w.like('bolts.diameter', value / factor)}"
+                    ),
+                )
         if bolts.access_sheet != "none" and bolts.access_diameter < MIN_ACCESS_PER_HOLE * d0:
-            raise w.conflict("bolts.access_diameter", "bolts.diameter", (
-                f"a socket on the nut must pass the access opening: at least "
-                f"{MIN_ACCESS_PER_HOLE:g} x the hole diameter"), (
-                f"use access openings of at least "
-                f"{w.like('bolts.access_diameter', MIN_ACCESS_PER_HOLE * d0)}, smaller bolts, "
-                'or access_sheet = "none" if the bolts are reached otherwise'))
+            raise w.conflict(
+                "bolts.access_diameter",
+                "bolts.diameter",
+                (
+                    f"a socket on the nut must pass the access opening: at least "
+                    f"{MIN_ACCESS_PER_HOLE:g} x the hole diameter"
+                ),
+                (
+                    f"use access openings of at least "
+                    f"{w.like('bolts.access_diameter', MIN_ACCESS_PER_HOLE * d0)}, smaller bolts, "
+                    'or access_sheet = "none" if the bolts are reached otherwise'
+                ),
+            )
         if self.stiffener_offset <= 2 * t_rib:
-            raise w.conflict("stiffener_offset", "rib_thickness", (
-                "a corner stiffener runs between the two ribs' inner faces, which leave it "
-                "nothing at a right-angled corner unless the offset is more than twice the rib "
-                "thickness"), (
-                f"use a stiffener_offset of more than {w.like('stiffener_offset', 2 * t_rib)} "
-                "(typically about the rib height)"))
+            raise w.conflict(
+                "stiffener_offset",
+                "rib_thickness",
+                (
+                    "a corner stiffener runs between the two ribs' inner faces, which leave it "
+                    "nothing at a right-angled corner unless the offset is more than twice the rib "
+                    "thickness"
+                ),
+                (
+                    f"use a stiffener_offset of more than {w.like('stiffener_offset', 2 * t_rib)} "
+                    "(typically about the rib height)"
+                ),
+            )
 
 
 class MaterialSection(_Section):
@@ -448,13 +508,22 @@ class CuttingSection(_Section):
 
     def _check(self, w: _Written) -> None:
         if self.part_spacing < self.kerf:
-            raise w.conflict("part_spacing", "kerf", "the part spacing must be at least the kerf",
-                             f"use a part_spacing of at least {w.like('part_spacing', self.kerf)}")
+            raise w.conflict(
+                "part_spacing",
+                "kerf",
+                "the part spacing must be at least the kerf",
+                f"use a part_spacing of at least {w.like('part_spacing', self.kerf)}",
+            )
         if self.usable[1] <= 0:
-            raise w.conflict("plate_margin", self.side_keys[1], (
-                "the margins along both edges leave nothing of the plate"), (
-                "use a plate_margin of less than "
-                f"{w.like('plate_margin', min(self.plate_length, self.plate_width) / 2)}"))
+            raise w.conflict(
+                "plate_margin",
+                self.side_keys[1],
+                ("the margins along both edges leave nothing of the plate"),
+                (
+                    "use a plate_margin of less than "
+                    f"{w.like('plate_margin', min(self.plate_length, self.plate_width) / 2)}"
+                ),
+            )
 
 
 class LoadsSection(_Section):
@@ -479,9 +548,13 @@ class LoadsSection(_Section):
 
     def _check(self, w: _Written) -> None:
         if math.hypot(*self.wind_direction) < MIN_WIND_DIRECTION:
-            raise _RuleError("wind_direction", (
-                f"{w('wind_direction')} has no horizontal direction; give the wind's direction "
-                "in plan as [x, y], e.g. [1.0, 0.0] for wind along +x"))
+            raise _RuleError(
+                "wind_direction",
+                (
+                    f"{w('wind_direction')} has no horizontal direction; give the wind's direction "
+                    "in plan as [x, y], e.g. [1.0, 0.0] for wind along +x"
+                ),
+            )
 
 
 class StructureSection(_Section):
@@ -549,26 +622,47 @@ class _JobModel(_Section):
         # where the rib plane leans against the panel normal; the nest finds that), its length
         # along the panel side
         if sandwich.rib_height > short_side:
-            raise w.conflict("sandwich.rib_height", short_key, (
-                f"ribs and stiffeners are cut rib_height high, the plate holds "
-                f"{format_number(short_side)} mm across inside its margins "
-                f"({w.label('cutting.plate_margin')} {w('cutting.plate_margin')} each side)"), (
-                f"use a rib_height of at most {w.like('sandwich.rib_height', short_side)} or "
-                "wider plates"))
+            raise w.conflict(
+                "sandwich.rib_height",
+                short_key,
+                (
+                    f"ribs and stiffeners are cut rib_height high, the plate holds "
+                    f"{format_number(short_side)} mm across inside its margins "
+                    f"({w.label('cutting.plate_margin')} {w('cutting.plate_margin')} each side)"
+                ),
+                (
+                    f"use a rib_height of at most {w.like('sandwich.rib_height', short_side)} or "
+                    "wider plates"
+                ),
+            )
         chord = 2 * math.sin(math.radians(STIFFENED_ANGLE / 2)) * sandwich.stiffener_offset
         if chord > long_side:
-            raise w.conflict("sandwich.stiffener_offset", long_key, (
-                f"a corner stiffener is up to {format_number(chord)} mm long (2 sin 75 deg x "
-                f"the offset, corners up to {STIFFENED_ANGLE:g} deg), the plate holds "
-                f"{format_number(long_side)} mm inside its margins"), (
-                "use a smaller stiffener_offset (typically about the rib height) or longer "
-                "plates"))
+            raise w.conflict(
+                "sandwich.stiffener_offset",
+                long_key,
+                (
+                    f"a corner stiffener is up to {format_number(chord)} mm long (2 sin 75 deg x "
+                    f"the offset, corners up to {STIFFENED_ANGLE:g} deg), the plate holds "
+                    f"{format_number(long_side)} mm inside its margins"
+                ),
+                (
+                    "use a smaller stiffener_offset (typically about the rib height) or longer "
+                    "plates"
+                ),
+            )
         if self.panelize.sizes_panels and sandwich.stiffener_offset >= self.panelize.panel_size:
-            raise w.conflict("sandwich.stiffener_offset", "panelize.panel_size", (
-                "a side needs more than twice the stiffener offset for its corner stiffeners: "
-                "panels of the target size would get none"), (
-                "use a stiffener_offset well under half the panel size (typically about the "
-                "rib height)"))
+            raise w.conflict(
+                "sandwich.stiffener_offset",
+                "panelize.panel_size",
+                (
+                    "a side needs more than twice the stiffener offset for its corner stiffeners: "
+                    "panels of the target size would get none"
+                ),
+                (
+                    "use a stiffener_offset well under half the panel size (typically about the "
+                    "rib height)"
+                ),
+            )
 
 
 _SECTION_NAMES = tuple(_JobModel.model_fields)
@@ -589,8 +683,13 @@ class Job:
 
     __slots__ = ("base_dir", "settings", "source")
 
-    def __init__(self, settings: _JobModel | None = None, base_dir: str | Path = ".",
-                 source: str | Path | None = None, **sections: dict[str, Any]):
+    def __init__(
+        self,
+        settings: _JobModel | None = None,
+        base_dir: str | Path = ".",
+        source: str | Path | None = None,
+        **sections: dict[str, Any],
+    ):
         if settings is None:
             where = str(source) if source else "job"
             try:
@@ -607,8 +706,11 @@ class Job:
         raise AttributeError("Job is immutable; use job.replace(section={...})")
 
     def __eq__(self, other: object) -> bool:
-        return (isinstance(other, Job) and self.settings == other.settings
-                and self.base_dir == other.base_dir)
+        return (
+            isinstance(other, Job)
+            and self.settings == other.settings
+            and self.base_dir == other.base_dir
+        )
 
     def __hash__(self) -> int:
         return hash((self.base_dir, repr(self.settings)))
@@ -622,11 +724,13 @@ class Job:
 
     # -- construction -------------------------------------------------------------------------
     @classmethod
-    def from_dict(cls, data: dict[str, Any], base_dir: str | Path = ".",
-                  source: str | Path | None = None) -> Job:
+    def from_dict(
+        cls, data: dict[str, Any], base_dir: str | Path = ".", source: str | Path | None = None
+    ) -> Job:
         if not isinstance(data, dict):
-            raise InputError(f"{source or 'job'}: expected sections such as [input], got "
-                             f"{type(data).__name__}")
+            raise InputError(
+                f"{source or 'job'}: expected sections such as [input], got {type(data).__name__}"
+            )
         unknown = [key for key in data if not isinstance(key, str)]
         if unknown:
             raise InputError(f"{source or 'job'}: section names must be text, got {unknown[0]!r}")
@@ -640,8 +744,9 @@ class Job:
         try:
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-            raise InputError(f"{path}: not valid TOML ({err}); check the syntax at that line") \
-                from None
+            raise InputError(
+                f"{path}: not valid TOML ({err}); check the syntax at that line"
+            ) from None
         return cls.from_dict(data, base_dir=path.parent, source=path)
 
     @classmethod
@@ -659,8 +764,9 @@ class Job:
         data = self.to_dict()
         for section, values in changes.items():
             if section not in _SECTION_NAMES:
-                raise InputError(f"unknown job section [{section}]; sections are "
-                                 f"{', '.join(_SECTION_NAMES)}")
+                raise InputError(
+                    f"unknown job section [{section}]; sections are {', '.join(_SECTION_NAMES)}"
+                )
             data[section] = {**data.get(section, {}), **values}
         return Job.from_dict(data, self.base_dir, self.source)
 
@@ -688,8 +794,12 @@ class Job:
         return self.settings.model_dump(mode="json", exclude_none=True)
 
 
-_SIGNS = {"greater_than": ">", "greater_than_equal": ">=", "less_than": "<",
-          "less_than_equal": "<="}
+_SIGNS = {
+    "greater_than": ">",
+    "greater_than_equal": ">=",
+    "less_than": "<",
+    "less_than_equal": "<=",
+}
 
 
 def _describe(err: ValidationError, data: Any = None) -> str:
@@ -727,7 +837,7 @@ def _describe(err: ValidationError, data: Any = None) -> str:
             shown = str(limit)
         return f"{key}: {as_written(value)} is out of range; it must be {_SIGNS[kind]} {shown}"
     if kind == "finite_number":
-        whole = _raw(data, loc[:len(loc) - len(items)])
+        whole = _raw(data, loc[: len(loc) - len(items)])
         if items and whole is not _MISSING:
             # the whole list as written, or the item of a list of lists (a point)
             item = whole[items[0]] if len(items) > 1 and isinstance(whole, (list, tuple)) else whole

@@ -48,27 +48,41 @@ def check_target(target: Path, inputs: Iterable[Path], force: bool) -> None:
     cwd = Path.cwd().resolve()
     if target == cwd or target in cwd.parents:
         what = "the working folder" if target == cwd else "an ancestor of the working folder"
-        raise InputError(f"output folder {target} is {what}; replacing it would delete your "
-                         f"files: choose a new folder, e.g. --out {cwd / 'fabpanel-out'}")
+        raise InputError(
+            f"output folder {target} is {what}; replacing it would delete your "
+            f"files: choose a new folder, e.g. --out {cwd / 'fabpanel-out'}"
+        )
     for path in inputs:
         path = Path(path).resolve()
-        if path == target or target in path.parents:
-            raise InputError(f"output folder {target} contains {path.name}, which this run "
-                             f"reads; choose an output folder that holds none of the inputs")
+        if path == target:
+            raise InputError(
+                f"output folder {target} is {path.name}, a file this run reads; "
+                f"choose another output folder"
+            )
+        if target in path.parents:
+            raise InputError(
+                f"output folder {target} contains {path.name}, which this run "
+                f"reads; choose an output folder that holds none of the inputs"
+            )
     if not target.exists() and not target.is_symlink():
         return
     if not target.is_dir() or target.is_symlink():
-        raise InputError(f"output path {target} exists and is not a folder; choose another "
-                         f"with --out")
+        raise InputError(
+            f"output path {target} exists and is not a folder; choose another with --out"
+        )
     if not any(target.iterdir()):
         return
     if not is_fabpanel_output(target):
-        raise InputError(f"output folder {target} exists and is not a fabpanel output folder "
-                         f"(no manifest.json of fabpanel); fabpanel replaces only its own "
-                         f"output: choose another folder with --out")
+        raise InputError(
+            f"output folder {target} exists and is not a fabpanel output folder "
+            f"(no manifest.json of fabpanel); fabpanel replaces only its own "
+            f"output: choose another folder with --out"
+        )
     if not force:
-        raise InputError(f"output folder {target} holds an earlier fabpanel run; pass --force "
-                         f"to replace it or choose another with --out")
+        raise InputError(
+            f"output folder {target} holds an earlier fabpanel run; pass --force "
+            f"to replace it or choose another with --out"
+        )
 
 
 def _pid_alive(pid: int) -> bool:
@@ -77,7 +91,7 @@ def _pid_alive(pid: int) -> bool:
     except ProcessLookupError:
         return False
     except PermissionError:
-        return True          # someone else's live process
+        return True  # someone else's live process
     return True
 
 
@@ -92,7 +106,7 @@ def sweep_stale(target: Path) -> list[Path]:
     Only folders named as fabpanel names them, whose owner process is gone, and which carry
     fabpanel's mark (staging) or manifest (a replaced output) are removed. Returns them.
     """
-    removed = []
+    removed: list[Path] = []
     parent = target.parent
     if not parent.is_dir():
         return removed
@@ -101,8 +115,11 @@ def sweep_stale(target: Path) -> list[Path]:
             pid = _owner_pid(folder, tag)
             if pid is None or _pid_alive(pid) or not folder.is_dir() or folder.is_symlink():
                 continue
-            ours = ((folder / STAGING_MARK).is_file() if tag == "partial"
-                    else is_fabpanel_output(folder))
+            ours = (
+                (folder / STAGING_MARK).is_file()
+                if tag == "partial"
+                else is_fabpanel_output(folder)
+            )
             if ours:
                 shutil.rmtree(folder, ignore_errors=True)
                 removed.append(folder)
@@ -114,8 +131,9 @@ def make_staging(target: Path) -> Path:
     staging = target.parent / f".{target.name}.partial-{os.getpid()}"
     if staging.exists():
         if not (staging / STAGING_MARK).is_file():
-            raise InputError(f"{staging} exists and is not fabpanel's; remove it or choose "
-                             f"another output folder")
+            raise InputError(
+                f"{staging} exists and is not fabpanel's; remove it or choose another output folder"
+            )
         shutil.rmtree(staging)
     staging.mkdir(parents=True)
     (staging / STAGING_MARK).write_text(str(os.getpid()))

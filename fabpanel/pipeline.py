@@ -26,6 +26,7 @@ from .data import DevelopedPanels, FlatParts, Model, Nests, PanelLayout, Surface
 from .errors import InputError, Issue
 from .job import STAGES, Job, Stage
 from .outdir import check_target, discard_staging, make_staging, move_into_place, sweep_stale
+from .panelize.estimate import check_panel_count
 
 if TYPE_CHECKING:
     from .structure import Structure
@@ -42,6 +43,8 @@ class Progress(Protocol):
 
     def finish(self, stage: str, seconds: float, note: str) -> None: ...
 
+    def note(self, text: str) -> None: ...
+
 
 class _Silent:
     def start(self, stage: str, total: int | None) -> None:
@@ -52,6 +55,13 @@ class _Silent:
 
     def finish(self, stage: str, seconds: float, note: str) -> None:
         log.info("%s done in %.1f s: %s", stage, seconds, note)
+
+    def note(self, text: str) -> None:
+        log.info("%s", text)
+
+
+#: above this many estimated panels the run says so before it starts the layout
+MANY_PANELS = 1000
 
 
 @dataclass(frozen=True)
@@ -78,12 +88,18 @@ def load(job: Job):
 
     if job.input_path is None:
         raise InputError("the job names no input surface; set [input] path or pass INPUT")
-    return load_surface(job.input_path, job.input.units)
+    return load_surface(job.input_path, job.input.units, crease_angle=job.input.crease_angle)
 
 
-def run(job: Job, out_dir: str | Path | None = None, until: Stage = "structure",
-        jobs: int | None = None, force: bool = False, progress: Progress | None = None,
-        write: bool = True) -> Result:
+def run(
+    job: Job,
+    out_dir: str | Path | None = None,
+    until: Stage = "structure",
+    jobs: int | None = None,
+    force: bool = False,
+    progress: Progress | None = None,
+    write: bool = True,
+) -> Result:
     """Run the pipeline up to and including stage ``until``; write the outputs when ``write``.
 
     out_dir : output folder (default: the job's ``[output] dir``). The working folder, folders
@@ -99,6 +115,12 @@ def run(job: Job, out_dir: str | Path | None = None, until: Stage = "structure",
     if write:
         check_target(target, job_inputs(job), force)
     surface = load(job)
+    estimate = check_panel_count(surface, job)  # a unit mistake stops here, at once
+    if estimate > MANY_PANELS:
+        progress.note(
+            f"{surface.source.name} asks for about {estimate:.0f} panels of "
+            f"{job.panelize.panel_size / 1000:g} m; a larger panel size runs faster"
+        )
     if not write:
         return _run_stages(job, surface, None, until, jobs, progress)
     swept = sweep_stale(target)
@@ -139,13 +161,24 @@ def warning_issues(stage: str, caught: list[warnings.WarningMessage]) -> list[Is
     for item in caught:
         key = (item.category.__name__, " ".join(str(item.message).split())[:200])
         seen[key] = seen.get(key, 0) + 1
-    return [Issue("library-warning", f"{stage}: {category}: {text}"
-                  + (f" ({count} times)" if count > 1 else ""), severity="warning")
-            for (category, text), count in seen.items()]
+    return [
+        Issue(
+            "library-warning",
+            f"{stage}: {category}: {text}" + (f" ({count} times)" if count > 1 else ""),
+            severity="warning",
+        )
+        for (category, text), count in seen.items()
+    ]
 
 
-def _run_stages(job: Job, surface: Surface, folder: Path | None, until: Stage, jobs: int | None,
-                progress: Progress) -> Result:
+def _run_stages(
+    job: Job,
+    surface: Surface,
+    folder: Path | None,
+    until: Stage,
+    jobs: int | None,
+    progress: Progress,
+) -> Result:
     from .develop import develop
     from .panelize import panelize
     from .surface import SurfaceQuery
@@ -156,34 +189,47 @@ def _run_stages(job: Job, surface: Surface, folder: Path | None, until: Stage, j
     query = SurfaceQuery(surface)
     state: dict = {"surface": surface}
 
-    layout, timings["panelize"] = _timed(progress, "panelize", None,
-                                         lambda: panelize(surface, job, query), issues)
+    layout, timings["panelize"] = _timed(
+        progress, "panelize", None, lambda: panelize(surface, job, query), issues
+    )
     issues += layout.issues
     progress.finish("panelize", timings["panelize"], f"{len(layout.quads)} panels")
     state["layout"] = layout
     ran: list[Stage] = ["panelize"]
 
     if stop >= STAGES.index("develop"):
-        developed, timings["develop"] = _timed(progress, "develop", None,
-                                               lambda: develop(layout, surface, job, query), issues)
+        developed, timings["develop"] = _timed(
+            progress, "develop", None, lambda: develop(layout, surface, job, query), issues
+        )
         issues += developed.issues
         state["developed"] = developed
         ran.append("develop")
-        progress.finish("develop", timings["develop"],
-                        ", ".join(f"{n} {c}" for c, n in developed.metrics["classes"].items()))
+        progress.finish(
+            "develop",
+            timings["develop"],
+            ", ".join(f"{n} {c}" for c, n in developed.metrics["classes"].items()),
+        )
 
     if stop >= STAGES.index("build"):
         from .model import build
 
         model, timings["build"] = _timed(
-            progress, "build", len(layout.quads),
+            progress,
+            "build",
+            len(layout.quads),
             lambda: build(state["developed"], job, jobs=jobs, progress=progress.advance),
-            issues)
+            issues,
+        )
         issues += model.issues
         state["model"] = model
         ran.append("build")
-        progress.finish("build", timings["build"],
-                        f"{len(model.parts)} parts, {model.mass:.1f} kg")
+        not_built = model.metrics.get("panels_not_built", 0)
+        progress.finish(
+            "build",
+            timings["build"],
+            f"{len(model.parts)} parts, {model.mass:.1f} kg"
+            + (f", {not_built} panel(s) not built" if not_built else ""),
+        )
 
     if stop >= STAGES.index("cut"):
         from .flat import cut
@@ -197,27 +243,40 @@ def _run_stages(job: Job, surface: Surface, folder: Path | None, until: Stage, j
         issues += flat.issues + nests.issues
         state["flat"], state["nests"] = flat, nests
         ran.append("cut")
-        progress.finish("cut", timings["cut"], f"{len(flat.parts)} flat parts on "
-                        f"{len(nests.plates)} plates")
+        progress.finish(
+            "cut", timings["cut"], f"{len(flat.parts)} flat parts on {len(nests.plates)} plates"
+        )
 
-    structure = {"analysed": False, "reason": f"not run (--until {until})",
-                 "ccx_found": shutil.which("ccx") is not None}
+    structure = {
+        "analysed": False,
+        "reason": f"not run (--until {until})",
+        "ccx_found": shutil.which("ccx") is not None,
+    }
     if stop >= STAGES.index("structure"):
         from .structure import analyse, describe
 
         analysis, timings["structure"] = _timed(
-            progress, "structure", None,
-            lambda: analyse(state["model"], job,
-                            folder=folder / "structure" if folder is not None else None),
-            issues)
+            progress,
+            "structure",
+            None,
+            lambda: analyse(
+                state["model"], job, folder=folder / "structure" if folder is not None else None
+            ),
+            issues,
+        )
         issues += analysis.issues
         state["structure"] = analysis
         structure = analysis.summary
         ran.append("structure")
         progress.finish("structure", timings["structure"], describe(analysis))
 
-    result = Result(job=job, out_dir=folder, issues=tuple(issues), stages_run=tuple(ran),
-                    **{k: v for k, v in state.items()})
+    result = Result(
+        job=job,
+        out_dir=folder,
+        issues=tuple(issues),
+        stages_run=tuple(ran),
+        **{k: v for k, v in state.items()},
+    )
     from .report import summarise
 
     summary = summarise(result, timings, structure)
@@ -245,14 +304,15 @@ def _write_plate_chunk(nests: Nests, flat: FlatParts, folder: Path) -> dict:
     return write_nests(nests, flat, folder)
 
 
-def _write_cut_files(flat: FlatParts, nests: Nests, folder: Path,
-                     workers: int) -> tuple[dict, dict]:
+def _write_cut_files(
+    flat: FlatParts, nests: Nests, folder: Path, workers: int
+) -> tuple[dict, dict]:
     """Part DXFs and plate DXF/PNGs, in worker processes (each file is independent)."""
     from .parallel import worker_pool
 
     def chunks(items):
         size = max(1, -(-len(items) // (4 * workers)))
-        return [items[i:i + size] for i in range(0, len(items), size)]
+        return [items[i : i + size] for i in range(0, len(items), size)]
 
     part_chunks = [FlatParts(parts=tuple(c)) for c in chunks(list(flat.parts))]
     plate_chunks = [Nests(plates=tuple(c)) for c in chunks(list(nests.plates))]
@@ -261,10 +321,12 @@ def _write_cut_files(flat: FlatParts, nests: Nests, folder: Path,
         plate_maps = [_write_plate_chunk(c, flat, folder / "nests") for c in plate_chunks]
     else:
         with worker_pool(workers) as pool:
-            part_futures = [pool.submit(_write_part_chunk, c, folder / "parts")
-                            for c in part_chunks]
-            plate_futures = [pool.submit(_write_plate_chunk, c, flat, folder / "nests")
-                             for c in plate_chunks]
+            part_futures = [
+                pool.submit(_write_part_chunk, c, folder / "parts") for c in part_chunks
+            ]
+            plate_futures = [
+                pool.submit(_write_plate_chunk, c, flat, folder / "nests") for c in plate_chunks
+            ]
             part_maps = [f.result() for f in part_futures]
             plate_maps = [f.result() for f in plate_futures]
     part_files = {k: v for m in part_maps for k, v in m.items()}
@@ -272,8 +334,9 @@ def _write_cut_files(flat: FlatParts, nests: Nests, folder: Path,
     return part_files, plate_files
 
 
-def _write_outputs(result: Result, folder: Path, progress: Progress,
-                   jobs: int | None = None) -> None:
+def _write_outputs(
+    result: Result, folder: Path, progress: Progress, jobs: int | None = None
+) -> None:
     job = result.job
     workers = jobs or os.cpu_count() or 1
     started = time.perf_counter()
@@ -299,8 +362,9 @@ def _write_outputs(result: Result, folder: Path, progress: Progress,
 
         (folder / "model" / "panels").mkdir(parents=True)
         if job.output.step:
-            write_step_assembly(result.model, folder / "model" / "assembly.step",
-                                job.material.density)
+            write_step_assembly(
+                result.model, folder / "model" / "assembly.step", job.material.density
+            )
             note(write_panel_steps(result.model, folder / "model" / "panels"), "model/panels")
         if job.output.glb:
             write_glb(result.model, folder / "model" / "preview.glb")
@@ -308,11 +372,12 @@ def _write_outputs(result: Result, folder: Path, progress: Progress,
             from .model.rhino import write_3dm
 
             write_3dm(result.model, folder / "model" / "design.3dm")
-    if result.flat is not None and job.output.dxf:
+    if result.flat is not None and result.nests is not None and job.output.dxf:
         (folder / "cut" / "parts").mkdir(parents=True)
         (folder / "cut" / "nests").mkdir(parents=True)
-        part_files, plate_files = _write_cut_files(result.flat, result.nests, folder / "cut",
-                                                   workers)
+        part_files, plate_files = _write_cut_files(
+            result.flat, result.nests, folder / "cut", workers
+        )
         note(part_files, "cut/parts")
         note(plate_files, "cut/nests")
 
@@ -338,12 +403,20 @@ def _json_default(value):
     raise TypeError(f"cannot write {type(value).__name__} to JSON")
 
 
-def versions() -> dict:
+def versions() -> dict[str, str | None]:
     from importlib.metadata import PackageNotFoundError, version
 
-    found = {"fabpanel": __version__, "python": platform.python_version()}
-    for name in ("build123d", "cadquery-ocp-novtk", "numpy", "scipy", "trimesh", "ezdxf",
-                 "spyrrow", "manifold3d"):
+    found: dict[str, str | None] = {"fabpanel": __version__, "python": platform.python_version()}
+    for name in (
+        "build123d",
+        "cadquery-ocp-novtk",
+        "numpy",
+        "scipy",
+        "trimesh",
+        "ezdxf",
+        "spyrrow",
+        "manifold3d",
+    ):
         try:
             found[name] = version(name)
         except PackageNotFoundError:
@@ -354,9 +427,11 @@ def versions() -> dict:
 def _flat_and_plate_of(result: Result) -> tuple[dict, dict]:
     """Each part's flat record and the name of the plate it is nested on, by part id."""
     flat_by_id = {p.id: p for p in result.flat.parts} if result.flat is not None else {}
-    plate_of = {placement.part_id: plate.name
-                for plate in (result.nests.plates if result.nests is not None else ())
-                for placement in plate.placements}
+    plate_of = {
+        placement.part_id: plate.name
+        for plate in (result.nests.plates if result.nests is not None else ())
+        for placement in plate.placements
+    }
     return flat_by_id, plate_of
 
 
@@ -365,9 +440,16 @@ def build_manifest(result: Result, files: dict[str, list[str]]) -> dict:
     panels = []
     if result.layout is not None:
         layout_record = result.layout.to_dict()
-        classes = dict(zip(result.developed.panel_ids, result.developed.classes)) \
-            if result.developed is not None else {}
+        classes = (
+            dict(zip(result.developed.panel_ids, result.developed.classes))
+            if result.developed is not None
+            else {}
+        )
         for record in layout_record["panels"]:
+            # the design's own frame, as the model files (the stages work in the local frame)
+            record["corners_mm"] = np.round(
+                np.asarray(record["corners_mm"]) + result.surface.origin, 3
+            ).tolist()
             record["class"] = classes.get(record["id"])
             record["files"] = files.get(record["id"], [])
             panels.append(record)
@@ -382,20 +464,31 @@ def build_manifest(result: Result, files: dict[str, list[str]]) -> dict:
                 record["plate"] = plate_of.get(part.id)
             parts.append(record)
     stages = {"surface": result.surface.to_dict()}
-    for name, value in (("panelize", result.layout), ("develop", result.developed),
-                        ("build", result.model), ("cut", result.flat), ("nest", result.nests)):
+    for name, value in (
+        ("panelize", result.layout),
+        ("develop", result.developed),
+        ("build", result.model),
+        ("cut", result.flat),
+        ("nest", result.nests),
+    ):
         if value is not None:
             stages[name] = value.metrics
     return {
         "fabpanel": __version__,
         "versions": versions(),
         "units": {"length": "mm", "mass": "kg", "area": "mm2", "volume": "mm3"},
+        # model files and panel corners are in the design's own frame; the stages, the
+        # CalculiX decks and the report's figures work in the local frame, whose origin this is
+        "origin_mm": np.round(result.surface.origin, 3).tolist(),
         "job": result.job.to_dict(),
         "stages_run": list(result.stages_run),
         "panels": panels,
         "parts": parts,
-        "nests": ([{**p.to_dict(), "files": files.get(p.name, [])} for p in result.nests.plates]
-                  if result.nests is not None else []),
+        "nests": (
+            [{**p.to_dict(), "files": files.get(p.name, [])} for p in result.nests.plates]
+            if result.nests is not None
+            else []
+        ),
         "metrics": stages,
         "structure": result.summary.get("structure", {}),
         "issues": [i.to_dict() for i in result.issues],
@@ -408,22 +501,48 @@ def _write_bom(result: Result, path: Path, files: dict[str, list[str]]) -> None:
     flat_by_id, plate_of = _flat_and_plate_of(result)
     with path.open("w", newline="") as handle:
         writer = csv.writer(handle)
-        writer.writerow(["part", "kind", "panel", "material", "thickness_mm", "flat_area_mm2",
-                         "volume_mm3", "mass_kg", "flat_length_mm", "flat_width_mm",
-                         "max_strain", "forming", "cut_length_mm", "pierces", "plate", "files"])
+        writer.writerow(
+            [
+                "part",
+                "kind",
+                "panel",
+                "material",
+                "thickness_mm",
+                "flat_area_mm2",
+                "volume_mm3",
+                "mass_kg",
+                "flat_length_mm",
+                "flat_width_mm",
+                "max_strain",
+                "forming",
+                "cut_length_mm",
+                "pierces",
+                "plate",
+                "files",
+            ]
+        )
         if result.model is None:
             return
         for part in result.model.parts:
             flat = flat_by_id.get(part.id)
-            size = (np.ptp(flat.outline, axis=0) if flat is not None else (None, None))
-            writer.writerow([
-                part.id, part.kind, part.panel_id, part.material, f"{part.thickness:g}",
-                f"{flat.area:.1f}" if flat is not None else f"{part.area:.1f}",
-                f"{part.volume:.1f}", f"{part.mass:.4f}",
-                f"{size[0]:.1f}" if flat is not None else "",
-                f"{size[1]:.1f}" if flat is not None else "",
-                f"{flat.max_strain:.2e}" if flat is not None else "",
-                flat.forming if flat is not None else "",
-                f"{cut_length(flat):.1f}" if flat is not None else "",
-                pierces(flat) if flat is not None else "",
-                plate_of.get(part.id, ""), " ".join(files.get(part.id, []))])
+            size = np.ptp(flat.outline, axis=0) if flat is not None else (None, None)
+            writer.writerow(
+                [
+                    part.id,
+                    part.kind,
+                    part.panel_id,
+                    part.material,
+                    f"{part.thickness:g}",
+                    f"{flat.area:.1f}" if flat is not None else f"{part.area:.1f}",
+                    f"{part.volume:.1f}",
+                    f"{part.mass:.4f}",
+                    f"{size[0]:.1f}" if flat is not None else "",
+                    f"{size[1]:.1f}" if flat is not None else "",
+                    f"{flat.max_strain:.2e}" if flat is not None else "",
+                    flat.forming if flat is not None else "",
+                    f"{cut_length(flat):.1f}" if flat is not None else "",
+                    pierces(flat) if flat is not None else "",
+                    plate_of.get(part.id, ""),
+                    " ".join(files.get(part.id, [])),
+                ]
+            )

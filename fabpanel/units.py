@@ -27,8 +27,13 @@ UNITS: dict[str, dict[str, float]] = {
 }
 
 #: unit of each dimension used when writing quantities back (manifest, job as run)
-INTERNAL_UNIT = {"length": "mm", "pressure": "N/mm2", "stress": "MPa", "density": "kg/mm3",
-                 "time": "s"}
+INTERNAL_UNIT = {
+    "length": "mm",
+    "pressure": "N/mm2",
+    "stress": "MPa",
+    "density": "kg/mm3",
+    "time": "s",
+}
 
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 # the unit starts with a letter, so the digits of "1.0" stay in the number (a bare number)
@@ -65,29 +70,40 @@ def parse_quantity(value: object, dimension: str, where: str = "") -> float:
     first, last = next(iter(units)), list(units)[-1]
     key = f"{where}: " if where else ""
     if isinstance(value, bool) or not isinstance(value, (str, int, float)):
-        raise InputError(f"{key}expected a {dimension} such as \"3 {first}\", "
-                         f"got {as_written(value)}")
+        raise InputError(
+            f'{key}expected a {dimension} such as "3 {first}", got {as_written(value)}'
+        )
     if isinstance(value, float) and not math.isfinite(value):
-        raise InputError(f"{key}{as_written(value)} is not a finite number; write a {dimension} "
-                         f"with its unit, e.g. \"3 {first}\"")
+        raise InputError(
+            f"{key}{as_written(value)} is not a finite number; write a {dimension} "
+            f'with its unit, e.g. "3 {first}"'
+        )
     if isinstance(value, (int, float)) or _BARE_NUMBER.match(value):
         number = value.strip() if isinstance(value, str) else value
-        raise InputError(f"{key}the {dimension} {as_written(value)} has no unit; units are "
-                         f"explicit in a job file: write it with one of {allowed}, e.g. "
-                         f"\"{number} {first}\" or \"{number} {last}\"")
+        raise InputError(
+            f"{key}the {dimension} {as_written(value)} has no unit; units are "
+            f"explicit in a job file: write it with one of {allowed}, e.g. "
+            f'"{number} {first}" or "{number} {last}"'
+        )
     match = _QUANTITY.match(value)
     if not match:
-        raise InputError(f"{key}cannot read {as_written(value)} as a {dimension}; write a number "
-                         f"and a unit ({allowed}), e.g. \"3 {first}\"")
+        raise InputError(
+            f"{key}cannot read {as_written(value)} as a {dimension}; write a number "
+            f'and a unit ({allowed}), e.g. "3 {first}"'
+        )
     number, unit = float(match.group(1)), _normalise_unit(match.group(2))
     if unit not in units:
-        raise InputError(f"{key}unit \"{unit}\" in {as_written(value)} is not a {dimension} "
-                         f"unit; use one of {allowed}")
+        raise InputError(
+            f'{key}unit "{unit}" in {as_written(value)} is not a {dimension} '
+            f"unit; use one of {allowed}"
+        )
     result = number * units[unit]
     # after the scaling: "1e308 m" is a finite number but an infinite length in mm
     if not math.isfinite(result):
-        raise InputError(f"{key}{as_written(value)} is too large: not a finite number in "
-                         f"{INTERNAL_UNIT[dimension]}; write a realistic {dimension}")
+        raise InputError(
+            f"{key}{as_written(value)} is too large: not a finite number in "
+            f"{INTERNAL_UNIT[dimension]}; write a realistic {dimension}"
+        )
     return result
 
 
@@ -125,8 +141,9 @@ def length_scale(units: str) -> float:
         raise InputError(f"input units {units!r} are not supported; use m or mm (or cm)") from err
 
 
-def length_option(text: str, default_units: str | None,
-                  option: str = "--panel-size") -> tuple[str, str | None]:
+def length_option(
+    text: str, default_units: str | None, option: str = "--panel-size"
+) -> tuple[str, str | None]:
     """A length given on the command line, as a quantity the job accepts, and a note.
 
     ``"1.2 m"`` comes back as it is, with no note. A bare number (``"1.2"``, ``"1200"``) is
@@ -137,8 +154,10 @@ def length_option(text: str, default_units: str | None,
     text = text.strip()
     if _BARE_NUMBER.match(text):
         if default_units is None:
-            raise InputError(f"{option} {text} has no unit and the input declares none; write "
-                             f"it with one, e.g. {option} \"{text} m\" or \"{text} mm\"")
+            raise InputError(
+                f"{option} {text} has no unit and the input declares none; write "
+                f'it with one, e.g. {option} "{text} m" or "{text} mm"'
+            )
         length_scale(default_units)
         quantity = f"{text} {default_units}"
         return quantity, f"{option} {text} has no unit: read as {quantity}, the input's units"

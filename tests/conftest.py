@@ -10,9 +10,15 @@ from fabpanel.data import DevelopedPanels, PanelLayout
 from fabpanel.develop.sides import side_planes
 
 
-def cylinder_developed(radius: float = 4000.0, length: float = 2400.0, n_arc: int = 2,
-                       n_len: int = 2, k: int = 9, arc: float = np.pi / 3,
-                       depth: float = 161.0) -> DevelopedPanels:
+def cylinder_developed(
+    radius: float = 4000.0,
+    length: float = 2400.0,
+    n_arc: int = 2,
+    n_len: int = 2,
+    k: int = 9,
+    arc: float = np.pi / 3,
+    depth: float = 161.0,
+) -> DevelopedPanels:
     """Panels on a cylinder (axis along x, outer normals radial), exact samples and normals.
 
     The vault spans angles ``pi/2 - arc/2 .. pi/2 + arc/2`` around the x axis (crown at +z),
@@ -42,15 +48,24 @@ def cylinder_developed(radius: float = 4000.0, length: float = 2400.0, n_arc: in
             samples.append(point(gx, gt))
             normals.append(normal(gx, gt))
     quads = np.array(quads)
-    layout = PanelLayout(vertices=vertices, quads=quads,
-                         panel_ids=tuple(f"P{i + 1:03d}" for i in range(len(quads))),
-                         method="analytic-cylinder")
+    layout = PanelLayout(
+        vertices=vertices,
+        quads=quads,
+        panel_ids=tuple(f"P{i + 1:03d}" for i in range(len(quads))),
+        method="analytic-cylinder",
+    )
     samples, normals = np.array(samples), np.array(normals)
     planes, *_ = side_planes(samples, normals)
     m = len(quads)
-    return DevelopedPanels(layout=layout, samples=samples, normals=normals, side_planes=planes,
-                           classes=("single-curved",) * m,
-                           bending_radius=np.full(m, radius), method="analytic")
+    return DevelopedPanels(
+        layout=layout,
+        samples=samples,
+        normals=normals,
+        side_planes=planes,
+        classes=("single-curved",) * m,
+        bending_radius=np.full(m, radius),
+        method="analytic",
+    )
 
 
 @pytest.fixture
@@ -65,24 +80,27 @@ def grid_surface(tmp_path, name: str, points: np.ndarray):
     v = (i * b + j).ravel()
     quads = np.stack([v, v + b, v + b + 1, v + 1], axis=1)
     path = tmp_path / f"{name}.obj"
-    path.write_text("\n".join(f"v {x} {y} {z}" for x, y, z in points.reshape(-1, 3)) + "\n"
-                    + "\n".join("f " + " ".join(str(q + 1) for q in quad) for quad in quads))
+    path.write_text(
+        "\n".join(f"v {x} {y} {z}" for x, y, z in points.reshape(-1, 3))
+        + "\n"
+        + "\n".join("f " + " ".join(str(q + 1) for q in quad) for quad in quads)
+    )
     return load_surface(path, "m")
 
 
 def sphere_cap(tmp_path, n=24, half=3.0, radius=5.0):
     """A spherical cap patch (radius 5 m) over a 6 x 6 m square, mesh in metres."""
-    x, y = np.meshgrid(np.linspace(-half, half, n + 1), np.linspace(-half, half, n + 1),
-                       indexing="ij")
-    z = np.sqrt(radius ** 2 - x ** 2 - y ** 2)
+    x, y = np.meshgrid(
+        np.linspace(-half, half, n + 1), np.linspace(-half, half, n + 1), indexing="ij"
+    )
+    z = np.sqrt(radius**2 - x**2 - y**2)
     return grid_surface(tmp_path, "cap", np.stack([x, y, z], axis=-1))
 
 
 def cone_patch(tmp_path, n=60, slope_deg=30.0):
     """A cone patch (axis z, generators 30 degrees off horizontal, apex at the origin) between
     radii 3 and 6 m over 0.8 rad, mesh in metres."""
-    r, phi = np.meshgrid(np.linspace(3.0, 6.0, n + 1), np.linspace(-0.4, 0.4, n + 1),
-                         indexing="ij")
+    r, phi = np.meshgrid(np.linspace(3.0, 6.0, n + 1), np.linspace(-0.4, 0.4, n + 1), indexing="ij")
     z = -r * np.tan(np.radians(slope_deg))
     return grid_surface(tmp_path, "cone", np.stack([r * np.cos(phi), r * np.sin(phi), z], -1))
 
@@ -90,6 +108,7 @@ def cone_patch(tmp_path, n=60, slope_deg=30.0):
 def hypar_patch(tmp_path, n=48, half=2.4, c=8.0):
     """A hyperbolic paraboloid z = (x^2 - y^2) / 2c over a square (K = -1/c^2 at the
     centre), mesh in metres."""
-    x, y = np.meshgrid(np.linspace(-half, half, n + 1), np.linspace(-half, half, n + 1),
-                       indexing="ij")
-    return grid_surface(tmp_path, "hypar", np.stack([x, y, (x ** 2 - y ** 2) / (2 * c)], -1))
+    x, y = np.meshgrid(
+        np.linspace(-half, half, n + 1), np.linspace(-half, half, n + 1), indexing="ij"
+    )
+    return grid_surface(tmp_path, "hypar", np.stack([x, y, (x**2 - y**2) / (2 * c)], -1))

@@ -17,8 +17,12 @@ def largest_miss(points: np.ndarray, vertices: np.ndarray, bulges: np.ndarray) -
 
 
 def rounded_rectangle(width=800.0, height=300.0, radius=40.0, per_side=40, per_corner=16):
-    corners = [(width - radius, radius), (width - radius, height - radius),
-               (radius, height - radius), (radius, radius)]
+    corners = [
+        (width - radius, radius),
+        (width - radius, height - radius),
+        (radius, height - radius),
+        (radius, radius),
+    ]
     out = []
     for k, (cx, cy) in enumerate(corners):
         start = -np.pi / 2 + k * np.pi / 2
@@ -35,12 +39,15 @@ def rounded_rectangle(width=800.0, height=300.0, radius=40.0, per_side=40, per_c
 @pytest.mark.parametrize("shape", ["ellipse", "rounded-rectangle", "wavy"])
 def test_fit_holds_every_vertex(shape):
     t = np.linspace(0, 2 * np.pi, 400, endpoint=False)
-    points = {"ellipse": np.stack([600 * np.cos(t), 300 * np.sin(t)], axis=1),
-              "rounded-rectangle": rounded_rectangle(),
-              "wavy": np.stack([(500 + 30 * np.sin(5 * t)) * np.cos(t),
-                                (500 + 30 * np.sin(5 * t)) * np.sin(t)], axis=1)}[shape]
+    points = {
+        "ellipse": np.stack([600 * np.cos(t), 300 * np.sin(t)], axis=1),
+        "rounded-rectangle": rounded_rectangle(),
+        "wavy": np.stack(
+            [(500 + 30 * np.sin(5 * t)) * np.cos(t), (500 + 30 * np.sin(5 * t)) * np.sin(t)], axis=1
+        ),
+    }[shape]
     vertices, bulges = fit_arcs(points)
-    assert len(vertices) < len(points) / 4                 # far fewer pieces than chords
+    assert len(vertices) < len(points) / 4  # far fewer pieces than chords
     assert np.abs(bulges).max() <= 1.0 and np.any(bulges != 0)
     # vertices are polyline points, and the pieces hold every other point
     assert all(np.min(np.linalg.norm(points - v, axis=1)) < 1e-9 for v in vertices)
@@ -56,8 +63,14 @@ def test_rounded_rectangle_is_four_lines_and_four_arcs():
 
 def test_sharp_corners_stay_sharp():
     s = np.linspace(0, 100, 51)[:-1]
-    square = np.concatenate([np.stack([s, 0 * s], 1), np.stack([100 + 0 * s, s], 1),
-                             np.stack([100 - s, 100 + 0 * s], 1), np.stack([0 * s, 100 - s], 1)])
+    square = np.concatenate(
+        [
+            np.stack([s, 0 * s], 1),
+            np.stack([100 + 0 * s, s], 1),
+            np.stack([100 - s, 100 + 0 * s], 1),
+            np.stack([0 * s, 100 - s], 1),
+        ]
+    )
     vertices, bulges = fit_arcs(square)
     np.testing.assert_array_equal(bulges, 0)
     assert sorted(map(tuple, vertices)) == [(0, 0), (0, 100), (100, 0), (100, 100)]

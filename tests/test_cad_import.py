@@ -12,39 +12,51 @@ import subprocess
 
 import numpy as np
 import pytest
+from test_flat import cone_grid, cylinder_grid, rib, sheet
 
 from fabpanel.data import Hole, Model
 from fabpanel.flat import cut, nest, write_nests, write_parts
 from fabpanel.job import Job
-from test_flat import cone_grid, cylinder_grid, rib, sheet
 
-pytestmark = pytest.mark.skipif(shutil.which("librecad") is None or shutil.which("pdftoppm")
-                                is None, reason="LibreCAD or pdftoppm not installed "
-                                                "(bash .ci/setup --test installs them)")
+pytestmark = pytest.mark.skipif(
+    shutil.which("librecad") is None or shutil.which("pdftoppm") is None,
+    reason="LibreCAD or pdftoppm not installed (bash .ci/setup --test installs them)",
+)
 
 
 def print_with_librecad(dxf, folder):
     """Print a DXF with LibreCAD, rasterise the PDF; returns the share of inked pixels."""
-    pdf = dxf.with_suffix(".pdf")             # LibreCAD 2.2 writes it beside the drawing
+    pdf = dxf.with_suffix(".pdf")  # LibreCAD 2.2 writes it beside the drawing
     env = {**os.environ, "QT_QPA_PLATFORM": "offscreen", "XDG_RUNTIME_DIR": str(folder)}
-    subprocess.run(["librecad", "dxf2pdf", "-a", str(dxf)], env=env, check=True,
-                   capture_output=True, timeout=120)
+    subprocess.run(
+        ["librecad", "dxf2pdf", "-a", str(dxf)],
+        env=env,
+        check=True,
+        capture_output=True,
+        timeout=120,
+    )
     if not pdf.exists():
         return 0.0
-    subprocess.run(["pdftoppm", "-r", "40", "-gray", "-singlefile", str(pdf),
-                    str(dxf.with_suffix(""))], check=True, capture_output=True, timeout=60)
+    subprocess.run(
+        ["pdftoppm", "-r", "40", "-gray", "-singlefile", str(pdf), str(dxf.with_suffix(""))],
+        check=True,
+        capture_output=True,
+        timeout=60,
+    )
     raw = dxf.with_suffix(".pgm").read_bytes()
     # binary PGM: header "P5\n<w> <h>\n<max>\n" then one byte per pixel
     header, width, height, maximum = raw.split(maxsplit=4)[:4]
-    pixels = np.frombuffer(raw[-int(width) * int(height):], dtype=np.uint8)
+    pixels = np.frombuffer(raw[-int(width) * int(height) :], dtype=np.uint8)
     assert header == b"P5" and int(maximum) == 255
     return float(np.mean(pixels < 200))
 
 
 def test_librecad_prints_parts_and_plates(tmp_path):
     openings = (Hole((0.5, 0.2), 40.0, "access"), Hole((0.5, 0.8), 40.0, "access"))
-    model = Model(parts=(sheet(cylinder_grid(), holes=openings), sheet(cone_grid(), "P002"),
-                         rib()), developed=None)  # type: ignore[arg-type]
+    model = Model(
+        parts=(sheet(cylinder_grid(), holes=openings), sheet(cone_grid(), "P002"), rib()),
+        developed=None,
+    )  # type: ignore[arg-type]
     job = Job.from_dict({})
     flat = cut(model, job)
     files = write_parts(flat, tmp_path / "parts")

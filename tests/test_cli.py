@@ -46,14 +46,18 @@ BAD_INPUTS = {
     "unknown extension": lambda d: (d / "surface.xyz").write_text("1 2 3") and d / "surface.xyz",
     "empty file": lambda d: (d / "empty.obj").write_text("") or d / "empty.obj",
     "no faces": lambda d: _write_obj(d / "points.obj", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], []),
-    "nan coordinates": lambda d: _write_obj(d / "nan.obj", [(0, 0, 0), (1, "nan", 0), (0, 1, 0)],
-                                            [(0, 1, 2)]),
-    "infinite coordinates": lambda d: _write_obj(d / "inf.obj", [(0, 0, 0), (1, "inf", 0),
-                                                                 (0, 1, 0)], [(0, 1, 2)]),
-    "face index out of range": lambda d: _write_obj(d / "range.obj", [(0, 0, 0), (1, 0, 0),
-                                                                      (0, 1, 0)], [(0, 1, 98)]),
-    "binary junk": lambda d: (d / "junk.stl").write_bytes(
-        np.random.default_rng(1).bytes(3000)) and d / "junk.stl",
+    "nan coordinates": lambda d: _write_obj(
+        d / "nan.obj", [(0, 0, 0), (1, "nan", 0), (0, 1, 0)], [(0, 1, 2)]
+    ),
+    "infinite coordinates": lambda d: _write_obj(
+        d / "inf.obj", [(0, 0, 0), (1, "inf", 0), (0, 1, 0)], [(0, 1, 2)]
+    ),
+    "face index out of range": lambda d: _write_obj(
+        d / "range.obj", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [(0, 1, 98)]
+    ),
+    "binary junk": lambda d: (
+        (d / "junk.stl").write_bytes(np.random.default_rng(1).bytes(3000)) and d / "junk.stl"
+    ),
     "step without surface": lambda d: _no_surface_step(d / "point.step"),
 }
 
@@ -69,13 +73,13 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(case, tmp_path):
     assert len(lines) == 1, result.stderr
     assert lines[0].startswith("error: ")
     assert "Traceback" not in result.output
-    assert set(tmp_path.iterdir()) == before          # nothing written, no staging left
+    assert set(tmp_path.iterdir()) == before  # nothing written, no staging left
 
 
 BAD_JOBS = {
     "unknown key": ('[sandwich]\nrib_heigth = "150 mm"\n', "rib_heigth"),
     "wrong unit": ('[sandwich]\nrib_height = "150 kg"\n', "not a length unit"),
-    "missing unit": ('[sandwich]\nrib_height = 150\n', "has no unit"),
+    "missing unit": ("[sandwich]\nrib_height = 150\n", "has no unit"),
     "zero thickness": ('[sandwich]\nsheet_thickness = "0 mm"\n', "sheet_thickness"),
     "negative size": ('[panelize]\npanel_size = "-1 m"\n', "panel_size"),
     "negative plate": ('[cutting]\nplate_length = "-3000 mm"\n', "plate_length"),
@@ -120,7 +124,7 @@ def test_init_writes_each_template(tmp_path):
         assert result.exit_code == 0, result.output
         assert path.read_text().startswith("# fabpanel job")
     assert _run("init", "--template", "nope", str(tmp_path / "x.toml")).exit_code == 2
-    assert _run("init", str(tmp_path / "cladding.toml")).exit_code == 2     # exists
+    assert _run("init", str(tmp_path / "cladding.toml")).exit_code == 2  # exists
 
 
 def test_inspect_reports_the_barrel_vault(tmp_path):
@@ -134,6 +138,7 @@ def test_inspect_reports_the_barrel_vault(tmp_path):
 
 
 def test_python_dash_m_runs():
-    result = subprocess.run([sys.executable, "-m", "fabpanel", "--help"], capture_output=True,
-                            text=True, check=False)
+    result = subprocess.run(
+        [sys.executable, "-m", "fabpanel", "--help"], capture_output=True, text=True, check=False
+    )
     assert result.returncode == 0 and "export" in result.stdout

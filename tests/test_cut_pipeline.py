@@ -15,8 +15,9 @@ from fabpanel.tolerances import TOLERANCES
 @pytest.fixture(scope="module")
 def cone_run(tmp_path_factory):
     surface = cone_patch(tmp_path_factory.mktemp("cone"))
-    job = fp.Job.from_dict({"panelize": {"grid_u": 3, "grid_v": 3},
-                            "develop": {"method": "global"}})
+    job = fp.Job.from_dict(
+        {"panelize": {"grid_u": 3, "grid_v": 3}, "develop": {"method": "global"}}
+    )
     developed = fp.develop(fp.panelize(surface, job), surface, job)
     model = fp.build(developed, job, jobs=2)
     return model, fp.cut(model, job, jobs=2)
@@ -51,8 +52,12 @@ def face_edges(brep: bytes) -> list[list[tuple[np.ndarray, float]]]:
         while walk.More():
             curve = BRepAdaptor_Curve(TopoDS.Edge(walk.Current()))
             middle = curve.Value((curve.FirstParameter() + curve.LastParameter()) / 2)
-            edges.append((np.array([middle.X(), middle.Y(), middle.Z()]),
-                          GCPnts_AbscissaPoint.Length_s(curve)))
+            edges.append(
+                (
+                    np.array([middle.X(), middle.Y(), middle.Z()]),
+                    GCPnts_AbscissaPoint.Length_s(curve),
+                )
+            )
             walk.Next()
         out.append(edges)
     return out
@@ -72,8 +77,9 @@ def test_unrolled_edges_equal_the_edges_of_the_built_sheets(cone_run):
         for side, flat_length in zip(sides, sheet.edge_lengths_flat):
             middle = side[len(side) // 2]
             # the mid fibre's edge: the mean of the matching edges of the two sheet faces
-            lengths = [min(edges, key=lambda e: np.linalg.norm(e[0] - middle))[1]
-                       for edges in faces]
+            lengths = [
+                min(edges, key=lambda e: np.linalg.norm(e[0] - middle))[1] for edges in faces
+            ]
             worst = max(worst, abs(flat_length - np.mean(lengths)))
     assert worst < TOLERANCES.unrolled_edge
 
@@ -85,9 +91,9 @@ def test_bend_lines_follow_the_cone_generators(cone_run):
 
     model, flat = cone_run
     parts = {p.id: p for p in model.parts}
-    apex = np.zeros(3)                   # the cone's apex: generators pass through it
+    apex = np.zeros(3)  # the cone's apex: generators pass through it
     for sheet in (p for p in flat.parts if p.kind.startswith("sheet")):
-        assert sheet.forming.startswith("OUT CON"), sheet.forming   # convex or concave
+        assert sheet.forming.startswith("OUT CON"), sheet.forming  # convex or concave
         grid = np.asarray(parts[sheet.id].surface_grid)
         uv, _ = flatten_grid(grid)
         to_3d = LinearNDInterpolator(uv.reshape(-1, 2), grid.reshape(-1, 3))
@@ -105,7 +111,7 @@ def test_bend_lines_follow_the_cone_generators(cone_run):
             bow = np.linalg.norm(rel - (rel @ axis)[:, None] * axis, axis=1).max()
             assert bow < 0.05, (sheet.id, bow)
             if sheet.kind == "sheet-bottom":
-                continue              # an offset cone 150 mm down: its apex lies elsewhere
+                continue  # an offset cone 150 mm down: its apex lies elsewhere
             # and close to the cone's generator there (the developed panel is a developable
             # surface within millimetres of the cone, not the cone itself)
             generator = points[len(points) // 2] - apex
@@ -123,8 +129,11 @@ def test_plates_say_which_face_looks_into_the_panel(cone_run):
 
     model, flat = cone_run
     parts = {p.id: p for p in model.parts}
-    centre = {p.panel_id: np.asarray(p.surface_grid).reshape(-1, 3).mean(axis=0)
-              for p in model.parts if p.kind == "sheet-top"}
+    centre = {
+        p.panel_id: np.asarray(p.surface_grid).reshape(-1, 3).mean(axis=0)
+        for p in model.parts
+        if p.kind == "sheet-top"
+    }
     plates = [p for p in flat.parts if p.kind in ("rib", "stiffener")]
     assert len(plates) == 9 * 8
     for plate in plates:

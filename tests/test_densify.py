@@ -20,8 +20,9 @@ from fabpanel.panelize.densify import (
 
 
 # ------------------------------------------------------------------------------ fixtures
-def make_layout(vertices, quads, loop_of_vertex=None, corner=None, curves=None,
-                loops=()) -> CoarseLayout:
+def make_layout(
+    vertices, quads, loop_of_vertex=None, corner=None, curves=None, loops=()
+) -> CoarseLayout:
     """A CoarseLayout with straight edges unless ``curves`` gives a polyline (a -> b, a < b)."""
     vertices = np.asarray(vertices, dtype=float)
     quads = np.asarray(quads, dtype=np.int64)
@@ -35,11 +36,16 @@ def make_layout(vertices, quads, loop_of_vertex=None, corner=None, curves=None,
                 edge_curves[key] = vertices[list(key)]
     n = len(vertices)
     return CoarseLayout(
-        vertices=vertices, quads=quads, edge_curves=edge_curves,
-        loop_of_vertex=np.zeros(n, dtype=np.int64) if loop_of_vertex is None
+        vertices=vertices,
+        quads=quads,
+        edge_curves=edge_curves,
+        loop_of_vertex=np.zeros(n, dtype=np.int64)
+        if loop_of_vertex is None
         else np.asarray(loop_of_vertex, dtype=np.int64),
         corner=np.ones(n, dtype=bool) if corner is None else np.asarray(corner, dtype=bool),
-        singular=np.zeros(0, dtype=np.int64), loops=tuple(loops))
+        singular=np.zeros(0, dtype=np.int64),
+        loops=tuple(loops),
+    )
 
 
 def rectangle_layout() -> CoarseLayout:
@@ -52,9 +58,12 @@ def rectangle_layout() -> CoarseLayout:
 def grid_layout() -> CoarseLayout:
     """A 2 x 2 grid of 500 mm coarse quads."""
     xs, ys = np.meshgrid([0.0, 500.0, 1000.0], [0.0, 500.0, 1000.0], indexing="ij")
-    vertices = np.stack([xs.ravel(), ys.ravel()], axis=1)          # id = 3 i + j
-    quads = [[3 * i + j, 3 * (i + 1) + j, 3 * (i + 1) + j + 1, 3 * i + j + 1]
-             for i in range(2) for j in range(2)]
+    vertices = np.stack([xs.ravel(), ys.ravel()], axis=1)  # id = 3 i + j
+    quads = [
+        [3 * i + j, 3 * (i + 1) + j, 3 * (i + 1) + j + 1, 3 * i + j + 1]
+        for i in range(2)
+        for j in range(2)
+    ]
     loop = np.zeros(9, dtype=np.int64)
     loop[4] = -1
     corner = np.zeros(9, dtype=bool)
@@ -65,8 +74,12 @@ def grid_layout() -> CoarseLayout:
 def annulus_layout(outer: float = 1000.0, inner: float = 500.0) -> CoarseLayout:
     """A ring of 4 coarse quads between two circles; edges on the circles are arcs."""
     angles = np.radians([45.0, 135.0, 225.0, 315.0])
-    vertices = np.vstack([np.c_[outer * np.cos(angles), outer * np.sin(angles)],
-                          np.c_[inner * np.cos(angles), inner * np.sin(angles)]])
+    vertices = np.vstack(
+        [
+            np.c_[outer * np.cos(angles), outer * np.sin(angles)],
+            np.c_[inner * np.cos(angles), inner * np.sin(angles)],
+        ]
+    )
     quads = [[k, (k + 1) % 4, 4 + (k + 1) % 4, 4 + k] for k in range(4)]
     curves = {}
     for k in range(4):
@@ -76,15 +89,27 @@ def annulus_layout(outer: float = 1000.0, inner: float = 500.0) -> CoarseLayout:
             arc = np.c_[radius * np.cos(t), radius * np.sin(t)]
             curves[(min(a, b), max(a, b))] = arc if a < b else arc[::-1]
     t = np.linspace(0, 2 * np.pi, 200, endpoint=False)
-    loops = (np.c_[outer * np.cos(t), outer * np.sin(t)],
-             np.c_[inner * np.cos(t), inner * np.sin(t)][::-1])
+    loops = (
+        np.c_[outer * np.cos(t), outer * np.sin(t)],
+        np.c_[inner * np.cos(t), inner * np.sin(t)][::-1],
+    )
     return make_layout(vertices, quads, [0] * 4 + [1] * 4, [False] * 8, curves, loops)
 
 
 def t_layout() -> CoarseLayout:
     """A T of four unit-ish quads: three in a row on top of one stem quad."""
-    vertices = [(100, 0), (200, 0), (0, 100), (100, 100), (200, 100), (300, 100),
-                (0, 200), (100, 200), (200, 200), (300, 200)]
+    vertices = [
+        (100, 0),
+        (200, 0),
+        (0, 100),
+        (100, 100),
+        (200, 100),
+        (300, 100),
+        (0, 200),
+        (100, 200),
+        (200, 200),
+        (300, 200),
+    ]
     quads = [[0, 1, 4, 3], [2, 3, 7, 6], [3, 4, 8, 7], [4, 5, 9, 8]]
     return make_layout(vertices, quads)
 
@@ -112,7 +137,7 @@ def mesh_invariants(vertices, quads) -> dict:
 
     b = edges[use == 1]
     graph = coo_matrix((np.ones(len(b)), (b[:, 0], b[:, 1])), shape=(n, n))
-    comps, label = connected_components(graph, directed=False)
+    _comps, label = connected_components(graph, directed=False)
     loops = len(np.unique(label[boundary]))
     return {"euler": n - len(edges) + len(quads), "index": int(index), "loops": loops}
 
@@ -156,15 +181,16 @@ def test_strips_of_t_shape():
 def test_strip_counts_use_the_longest_edge():
     layout = t_layout()
     lengths = edge_lengths_2d(layout)
-    lengths[(7, 8)] = 250.0          # a lifted edge longer than in the plane
+    lengths[(7, 8)] = 250.0  # a lifted edge longer than in the plane
     _, strips = collect_strips(layout.quads)
     counts = strip_counts(layout, lengths, 100.0)
     by_strip = {tuple(s.edges): c for s, c in zip(strips, counts)}
     assert by_strip[((0, 1), (3, 4), (7, 8))] == 3
     assert all(c == 1 for e, c in by_strip.items() if (7, 8) not in e)
     # a callable of the polyline works too
-    assert np.array_equal(strip_counts(layout, lambda c: 2 * np.linalg.norm(c[-1] - c[0]), 100.0),
-                          [2, 2, 2, 2, 2])
+    assert np.array_equal(
+        strip_counts(layout, lambda c: 2 * np.linalg.norm(c[-1] - c[0]), 100.0), [2, 2, 2, 2, 2]
+    )
     with pytest.raises(GeometryError):
         strip_counts(layout, lengths, 0.0)
 
@@ -194,7 +220,7 @@ def test_densify_rectangle_band_and_orientation():
     assert np.all(dense.loop_of_vertex[middle & ~on_middle] == 0)
     assert np.array_equal(np.bincount(dense.face_of_quad), [25, 25])
     # unpacks in the pipeline's order
-    vertices, quads, loop_of_vertex, fixed = dense
+    vertices, _quads, _loop_of_vertex, fixed = dense
     assert vertices is dense.vertices and fixed is dense.fixed
 
 
@@ -224,17 +250,18 @@ def test_densify_annulus_topology():
     assert np.all(signed_quad_areas(dense.vertices, dense.quads) > 0)
     # F_dense = sum over coarse faces of n_i * m_i
     strip_of_edge, _ = collect_strips(layout.quads)
-    expected = sum(counts[strip_of_edge[tuple(sorted((q[0], q[1])))]]
-                   * counts[strip_of_edge[tuple(sorted((q[1], q[2])))]]
-                   for q in layout.quads.tolist())
+    expected = sum(
+        counts[strip_of_edge[tuple(sorted((q[0], q[1])))]]
+        * counts[strip_of_edge[tuple(sorted((q[1], q[2])))]]
+        for q in layout.quads.tolist()
+    )
     assert len(dense.quads) == expected
     # boundary samples lie on their circle and carry its loop id
     radius = np.linalg.norm(dense.vertices, axis=1)
     np.testing.assert_allclose(radius[dense.loop_of_vertex == 0], 1000.0, rtol=1e-2)
     np.testing.assert_allclose(radius[dense.loop_of_vertex == 1], 500.0, rtol=1e-2)
     # (boundary samples lie on the arcs' chords: up to 0.6 mm inside the circles)
-    assert np.all((radius > 500.0 + 1.0) & (radius < 1000.0 - 1.0)
-                  == (dense.loop_of_vertex == -1))
+    assert np.all((radius > 500.0 + 1.0) & (radius < 1000.0 - 1.0) == (dense.loop_of_vertex == -1))
 
 
 def test_densify_t_shape_is_watertight():

@@ -13,7 +13,7 @@ from fabpanel.develop.measure import advised_panel_size
 from fabpanel.develop.sides import panel_sides, side_planes
 from fabpanel.report.develop_figures import gaussian_curvature
 
-DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # shipped: fabpanel demo
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"  # shipped: fabpanel demo
 
 
 @pytest.fixture(scope="module")
@@ -25,11 +25,12 @@ def vault():
 
 def test_cylinder_panels_are_single_curved_and_exact(vault):
     assert set(vault.classes) == {"single-curved"}
-    np.testing.assert_allclose(np.hypot(vault.samples[..., 1], vault.samples[..., 2]), 4000.0,
-                               atol=1e-6)
+    np.testing.assert_allclose(
+        np.hypot(vault.samples[..., 1], vault.samples[..., 2]), 4000.0, atol=1e-6
+    )
     np.testing.assert_allclose(vault.bending_radius, 4000.0, rtol=1e-6)
     assert vault.metrics["unroll_strain"]["max"] < 1e-6
-    assert vault.metrics["deviation_mm"]["max"] < 0.05       # chord of 8 sample segments
+    assert vault.metrics["deviation_mm"]["max"] < 0.05  # chord of 8 sample segments
     assert vault.metrics["rib_plane_residual_mm_max"] < 1e-6
 
 
@@ -50,7 +51,9 @@ def test_neighbours_share_side_samples_exactly(vault):
 
 def test_rib_planes_point_into_the_panel(vault):
     centres = vault.samples[:, 4, 4]
-    signed = np.einsum("msi,mi->ms", vault.side_planes[..., :3], centres) - vault.side_planes[..., 3]
+    signed = (
+        np.einsum("msi,mi->ms", vault.side_planes[..., :3], centres) - vault.side_planes[..., 3]
+    )
     assert np.all(signed > 0)
 
 
@@ -66,8 +69,7 @@ def test_doubly_curved_panels_are_not_developable(tmp_path):
     for panel in developed.metrics["per_panel"].values():
         assert panel["advised_panel_size_mm"] < 2000.0
     advised = min(p["advised_panel_size_mm"] for p in developed.metrics["per_panel"].values())
-    smaller = job.replace(panelize={"grid_u": None, "grid_v": None,
-                                    "panel_size": f"{advised} mm"})
+    smaller = job.replace(panelize={"grid_u": None, "grid_v": None, "panel_size": f"{advised} mm"})
     again = develop(panelize(surface, smaller), surface, smaller)
     assert again.metrics["unroll_strain"]["max"] <= smaller.develop.strain_tolerance
 
@@ -88,8 +90,14 @@ def test_rib_planes_of_a_cone_hold_the_sides_at_a_constant_bevel():
     rr, tt = np.meshgrid(r, t, indexing="ij")
     slope = np.tan(np.radians(30.0))
     grid = np.stack([rr * np.cos(tt), rr * np.sin(tt), -rr * slope], -1)[None]
-    normal = np.stack([np.sin(np.radians(30.0)) * np.cos(tt), np.sin(np.radians(30.0))
-                       * np.sin(tt), np.full_like(tt, np.cos(np.radians(30.0)))], -1)[None]
+    normal = np.stack(
+        [
+            np.sin(np.radians(30.0)) * np.cos(tt),
+            np.sin(np.radians(30.0)) * np.sin(tt),
+            np.full_like(tt, np.cos(np.radians(30.0))),
+        ],
+        -1,
+    )[None]
     _, edge, angle, twist = side_planes(grid, normal)
     assert edge.max() < 1e-6
     assert twist.max() < 1e-6

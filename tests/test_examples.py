@@ -27,8 +27,9 @@ shapes = _shapes()
 def _xy_signed_areas(surface) -> np.ndarray:
     tri = surface.vertices[surface.faces]
     a, b, c = tri[:, 0, :2], tri[:, 1, :2], tri[:, 2, :2]
-    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
-                  - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    return 0.5 * (
+        (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    )
 
 
 # generator, coarse resolution for speed, boundary loops expected
@@ -47,21 +48,22 @@ def test_generator_gives_valid_surface(tmp_path, name):
     info = describe_surface(surface)
     assert info["boundary_loops"] == loops
     assert info["manifold"]
-    assert surface.area > 50e6                               # tens of m2, in mm2
+    assert surface.area > 50e6  # tens of m2, in mm2
     # a graph over XY, wound counter-clockwise seen from above after loading (outer side up)
     signed = _xy_signed_areas(surface)
     assert np.all(signed > 0) or np.all(signed < 0)
 
 
 def test_pavilion_rims_stand_on_the_ground_and_flare(tmp_path):
-    surface = load_surface(shapes.write_pavilion(tmp_path / "p.obj", spacing=0.6, rim_points=24),
-                           "m")
+    surface = load_surface(
+        shapes.write_pavilion(tmp_path / "p.obj", spacing=0.6, rim_points=24), "m"
+    )
     size = np.ptp(surface.vertices, axis=0)
-    assert 18_000 < size[0] < 23_000 and 18_000 < size[1] < 23_000     # about 20 m across
-    assert 5_000 < size[2] < 6_000                                       # 5-6 m high
+    assert 18_000 < size[0] < 23_000 and 18_000 < size[1] < 23_000  # about 20 m across
+    assert 5_000 < size[2] < 6_000  # 5-6 m high
     for loop in surface.boundary_loops[1:]:
         rim = surface.vertices[loop]
-        np.testing.assert_allclose(rim[:, 2], 0.0, atol=50.0)            # within 0.05 m
+        np.testing.assert_allclose(rim[:, 2], 0.0, atol=50.0)  # within 0.05 m
         radius = np.linalg.norm(rim[:, :2] - rim[:, :2].mean(axis=0), axis=1)
         np.testing.assert_allclose(radius, shapes.SUPPORT_RADIUS * 1000, rtol=1e-3)
     # trumpets: 1.5 m beyond each rim the shell is already well above the ground
@@ -100,7 +102,7 @@ def test_patch_step_is_one_exact_face(tmp_path):
     exact = np.stack([x, y, shapes.patch_height(x, y)], axis=-1).reshape(-1, 3) * 1000.0
     _, normals, distance = query.closest(exact)
     np.testing.assert_allclose(distance, 0.0, atol=1e-3)
-    assert np.all(normals[:, 2] > 0)                         # outer side up
+    assert np.all(normals[:, 2] > 0)  # outer side up
 
 
 @pytest.mark.parametrize("name", sorted(shapes.JOBS))

@@ -31,16 +31,24 @@ def cone_grid(a: int = 41, b: int = 25) -> np.ndarray:
     """Cone patch (apex at origin, axis +z): i along the angle, j along the rulings (distance s)."""
     t = np.linspace(*CONE_T, a)[:, None, None]
     s = np.linspace(*CONE_S, b)[None, :, None]
-    ruling = np.concatenate([np.sin(CONE_HALF_ANGLE) * np.cos(t), np.sin(CONE_HALF_ANGLE)
-                             * np.sin(t), np.full_like(t, np.cos(CONE_HALF_ANGLE))], axis=-1)
+    ruling = np.concatenate(
+        [
+            np.sin(CONE_HALF_ANGLE) * np.cos(t),
+            np.sin(CONE_HALF_ANGLE) * np.sin(t),
+            np.full_like(t, np.cos(CONE_HALF_ANGLE)),
+        ],
+        axis=-1,
+    )
     return s * ruling
 
 
 def sphere_grid(radius: float = 3000.0, k: int = 25) -> np.ndarray:
     u = np.linspace(-0.2, 0.2, k)[:, None]
     v = np.linspace(-0.2, 0.2, k)[None, :]
-    return radius * np.stack(np.broadcast_arrays(np.sin(u) * np.cos(v), np.sin(v) + 0 * u,
-                                                 np.cos(u) * np.cos(v)), axis=-1)
+    return radius * np.stack(
+        np.broadcast_arrays(np.sin(u) * np.cos(v), np.sin(v) + 0 * u, np.cos(u) * np.cos(v)),
+        axis=-1,
+    )
 
 
 def sides(grid):
@@ -52,16 +60,37 @@ def lengths(polylines):
 
 
 def sheet(grid, pid="P001", kind="sheet-top", holes=()) -> Part:
-    return Part(id=f"{pid}-{'TOP' if kind == 'sheet-top' else 'BOT'}", kind=kind, panel_id=pid,
-                material="S235", thickness=3.0, volume=0.0, area=0.0, mass=0.0, brep=b"",
-                surface_grid=grid, holes=holes)
+    return Part(
+        id=f"{pid}-{'TOP' if kind == 'sheet-top' else 'BOT'}",
+        kind=kind,
+        panel_id=pid,
+        material="S235",
+        thickness=3.0,
+        volume=0.0,
+        area=0.0,
+        mass=0.0,
+        brep=b"",
+        surface_grid=grid,
+        holes=holes,
+    )
 
 
 def rib(pid="P001", side=0) -> Part:
     outline = np.array([[0, 0], [900, 0], [900, 150], [600, 170], [0, 150]], dtype=float)
-    return Part(id=f"{pid}-RIB-{side}", kind="rib", panel_id=pid, material="S235",
-                thickness=8.0, volume=0.0, area=0.0, mass=0.0, brep=b"", outline=outline,
-                frame=np.eye(4), holes=(Hole((100.0, 75.0), 13.0), Hole((800.0, 75.0), 13.0)))
+    return Part(
+        id=f"{pid}-RIB-{side}",
+        kind="rib",
+        panel_id=pid,
+        material="S235",
+        thickness=8.0,
+        volume=0.0,
+        area=0.0,
+        mass=0.0,
+        brep=b"",
+        outline=outline,
+        frame=np.eye(4),
+        holes=(Hole((100.0, 75.0), 13.0), Hole((800.0, 75.0), 13.0)),
+    )
 
 
 def test_cylinder_unrolls_exactly():
@@ -104,8 +133,10 @@ def test_sphere_reports_strain():
 def test_cut_sheets_and_ribs(tmp_path):
     # sheet holes are given in surface parameters; two on one straight ruling (grid[i, :])
     openings = (Hole((0.5, 0.2), 40.0, "access"), Hole((0.5, 0.8), 40.0, "access"))
-    model = Model(parts=(sheet(cylinder_grid(), holes=openings),
-                         sheet(cone_grid(), "P002"), rib()), developed=None)  # type: ignore[arg-type]
+    model = Model(
+        parts=(sheet(cylinder_grid(), holes=openings), sheet(cone_grid(), "P002"), rib()),
+        developed=None,
+    )  # type: ignore[arg-type]
     flat = cut(model, Job.from_dict({}))
     top, cone, rib_part = flat.parts
     grid = cylinder_grid()
@@ -129,6 +160,7 @@ def test_cut_sheets_and_ribs(tmp_path):
     from shapely.geometry import LineString
 
     from fabpanel.flat.unroll import label_boxes
+
     text = label_boxes(top.labels).buffer(-0.5)
     assert len(top.bend_lines) > 5
     assert not any(LineString(line).intersects(text) for line in top.bend_lines)
@@ -163,15 +195,19 @@ def bend_lines_in_3d(grid):
     to_3d = LinearNDInterpolator(uv.reshape(-1, 2), grid.reshape(-1, 3))
     lines = bending.lines
     # pull the ends 1 mm inside so the piecewise-linear map is defined there
-    direction = (lines[:, 1] - lines[:, 0]) / np.linalg.norm(lines[:, 1] - lines[:, 0],
-                                                                 axis=1)[:, None]
+    direction = (lines[:, 1] - lines[:, 0]) / np.linalg.norm(lines[:, 1] - lines[:, 0], axis=1)[
+        :, None
+    ]
     ends = np.stack([lines[:, 0] + direction, lines[:, 1] - direction], axis=1)
     middle = ends.mean(axis=1)
     return bending, to_3d(ends.reshape(-1, 2)).reshape(-1, 2, 3), to_3d(middle)
 
 
-@pytest.mark.parametrize("grid", [cylinder_grid(), skewed_cylinder_grid()],
-                         ids=["grid-lines-are-rulings", "helical-grid"])
+@pytest.mark.parametrize(
+    "grid",
+    [cylinder_grid(), skewed_cylinder_grid()],
+    ids=["grid-lines-are-rulings", "helical-grid"],
+)
 def test_bend_lines_are_the_cylinder_rulings(grid):
     bending, ends, middle = bend_lines_in_3d(grid)
     assert bending.form == "single" and len(bending.lines) == 5 and bending.convex
@@ -189,26 +225,30 @@ def test_bend_lines_of_a_cone_meet_at_its_apex():
     assert bending.form == "single" and len(bending.lines) == 5
     # the apex is the origin: the 3D line through the ends passes through it
     direction = ends[:, 1] - ends[:, 0]
-    miss = np.linalg.norm(np.cross(ends[:, 0], direction), axis=1) / np.linalg.norm(direction,
-                                                                                    axis=1)
+    miss = np.linalg.norm(np.cross(ends[:, 0], direction), axis=1) / np.linalg.norm(
+        direction, axis=1
+    )
     assert miss.max() < 1.0
-    rho = np.tan(CONE_HALF_ANGLE) * np.array(CONE_S)     # radius of curvature across a ruling
-    np.testing.assert_allclose([bending.radii[:, 0].min(), bending.radii[:, 1].max()], rho,
-                               rtol=2e-3)
+    rho = np.tan(CONE_HALF_ANGLE) * np.array(CONE_S)  # radius of curvature across a ruling
+    np.testing.assert_allclose(
+        [bending.radii[:, 0].min(), bending.radii[:, 1].max()], rho, rtol=2e-3
+    )
 
 
 def test_roll_direction_follows_the_face_seen():
     from fabpanel.flat.bending import bending_of
     from fabpanel.flat.unroll import grid_outline
 
-    outside, inside = cylinder_grid(), cylinder_grid()[:, ::-1]   # d_i x d_j out / in
+    outside, inside = cylinder_grid(), cylinder_grid()[:, ::-1]  # d_i x d_j out / in
     forms = []
     for grid in (outside, inside):
         uv, _ = flatten_grid(grid)
         forms.append(bending_of(grid, uv, grid_outline(uv)).instruction())
     assert forms == ["OUT CONVEX R4000", "OUT CONCAVE R4000"]
-    flat = np.stack(np.broadcast_arrays(np.linspace(0, 900, 9)[:, None],
-                                        np.linspace(0, 600, 7)[None, :], 0.0), axis=-1)
+    flat = np.stack(
+        np.broadcast_arrays(np.linspace(0, 900, 9)[:, None], np.linspace(0, 600, 7)[None, :], 0.0),
+        axis=-1,
+    )
     uv, _ = flatten_grid(flat)
     assert bending_of(flat, uv, grid_outline(uv)).instruction() == "OUT FLAT"
     uv, _ = flatten_grid(sphere_grid())
@@ -237,7 +277,7 @@ def test_small_holes_are_drilled_not_cut(tmp_path):
     from fabpanel.flat.nest import pierces
 
     model = Model(parts=(rib(),), developed=None)  # type: ignore[arg-type]
-    cut_holes = cut(model, Job.from_dict({})).parts[0]             # 13 mm in 8 mm: 1.6 t
+    cut_holes = cut(model, Job.from_dict({})).parts[0]  # 13 mm in 8 mm: 1.6 t
     drilled = cut(model, Job.from_dict({"cutting": {"min_plasma_hole": 2.0}})).parts[0]
     assert len(cut_holes.round_holes) == 2 and not cut_holes.drill_holes
     assert len(drilled.drill_holes) == 2 and not drilled.round_holes
@@ -249,9 +289,12 @@ def test_small_holes_are_drilled_not_cut(tmp_path):
     assert not msp.query('CIRCLE[layer=="CUT-INNER"]')
     # each drill hole gets an etched centre cross through its centre
     centres = {tuple(np.round(h.centre, 6)) for h in drilled.drill_holes}
-    crosses = [e for e in msp.query('LWPOLYLINE[layer=="ETCH"]') if len(e) == 2
-               and tuple(np.round(np.mean([p[:2] for p in e.get_points()], axis=0), 6))
-               in centres]
+    crosses = [
+        e
+        for e in msp.query('LWPOLYLINE[layer=="ETCH"]')
+        if len(e) == 2
+        and tuple(np.round(np.mean([p[:2] for p in e.get_points()], axis=0), 6)) in centres
+    ]
     assert len(crosses) == 4
     assert part_area_from_dxf(path) == pytest.approx(drilled.area, rel=1e-6)
     assert audit_dxf(path) == []

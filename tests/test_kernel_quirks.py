@@ -47,7 +47,7 @@ def test_sewn_slab_is_a_valid_solid_between_its_faces():
     assert occ.is_valid(solid)
     radii = np.hypot(*occ.shape_points(solid)[:, 1:].T)
     assert radii.max() < 4000.0 + 1e-3 and radii.min() > 4000.0 - 5.0 - 1e-3
-    shell = np.pi / 12 * (4000.0 ** 2 - 3995.0 ** 2) * 1000.0
+    shell = np.pi / 12 * (4000.0**2 - 3995.0**2) * 1000.0
     np.testing.assert_allclose(occ.volume(solid), shell, rtol=1e-4)
 
 
@@ -66,15 +66,23 @@ def test_spyrrow_without_improvement_time_is_reproducible():
 
     rng = np.random.default_rng(0)
     sizes = rng.uniform(100, 900, (30, 2)).round(1)
-    items = [spyrrow.Item(str(i), [(0, 0), (w, 0), (w, h), (0, h)], demand=1,
-                          allowed_orientations=[0.0, 90.0]) for i, (w, h) in enumerate(sizes)]
+    items = [
+        spyrrow.Item(
+            str(i), [(0, 0), (w, 0), (w, h), (0, h)], demand=1, allowed_orientations=[0.0, 90.0]
+        )
+        for i, (w, h) in enumerate(sizes)
+    ]
     results = []
     for _ in range(2):
         instance = spyrrow.StripPackingInstance("quirk", 1480.0, items)
-        config = spyrrow.StripPackingConfig(early_termination=True, num_workers=1,
-                                            total_computation_time=0, seed=0)
+        config = spyrrow.StripPackingConfig(
+            early_termination=True, num_workers=1, total_computation_time=0, seed=0
+        )
         solution = instance.solve(config)
-        results.append(sorted((p.id, p.rotation, tuple(np.round(p.translation, 9)))
-                              for p in solution.placed_items))
+        results.append(
+            sorted(
+                (p.id, p.rotation, tuple(np.round(p.translation, 9))) for p in solution.placed_items
+            )
+        )
     assert results[0] == results[1]
     assert len(results[0]) == len(items)

@@ -87,8 +87,12 @@ def test_parts_ids_kinds_and_order(model):
     kinds = {p.id: p.kind for p in model.parts}
     assert kinds["P001-TOP"] == "sheet-top" and kinds["P003-BOT"] == "sheet-bottom"
     assert kinds["P004-RIB-2"] == "rib" and kinds["P002-STF-3"] == "stiffener"
-    assert model.metrics["counts"] == {"sheet-top": 4, "sheet-bottom": 4, "rib": 16,
-                                       "stiffener": 16}
+    assert model.metrics["counts"] == {
+        "sheet-top": 4,
+        "sheet-bottom": 4,
+        "rib": 16,
+        "stiffener": 16,
+    }
     assert model.issues == ()
 
 
@@ -101,9 +105,9 @@ def test_every_solid_valid(model):
 def test_sheet_volumes_are_cylindrical_shells_less_the_openings(model, job):
     t, d = job.sandwich.sheet_thickness, job.sandwich.bolts.access_diameter
     angle, length = ARC / 2, LENGTH / 2
-    shell = angle / 2 * (R ** 2 - (R - t) ** 2) * length
+    shell = angle / 2 * (R**2 - (R - t) ** 2) * length
     top_in = R - t - job.sandwich.rib_height
-    bot = angle / 2 * (top_in ** 2 - (top_in - job.sandwich.bottom_thickness) ** 2) * length
+    bot = angle / 2 * (top_in**2 - (top_in - job.sandwich.bottom_thickness) ** 2) * length
     for part in model.parts:
         if part.kind == "sheet-top":
             assert part.holes == ()
@@ -113,8 +117,9 @@ def test_sheet_volumes_are_cylindrical_shells_less_the_openings(model, job):
         if part.kind == "sheet-bottom":
             openings = len(part.holes)
             assert openings > 0 and all(h.purpose == "access" for h in part.holes)
-            np.testing.assert_allclose(part.volume, bot - openings * np.pi * d ** 2 / 4 * t,
-                                       rtol=1e-4)
+            np.testing.assert_allclose(
+                part.volume, bot - openings * np.pi * d**2 / 4 * t, rtol=1e-4
+            )
 
 
 def test_sheet_fit_and_mid_fibre_grid(model, job):
@@ -127,8 +132,9 @@ def test_sheet_fit_and_mid_fibre_grid(model, job):
     np.testing.assert_allclose(np.hypot(grid[..., 1], grid[..., 2]), R - t / 2, atol=0.01)
     # side convention: corners of the developed grid, moved to the mid fibre
     samples = model.developed.samples[0]
-    for (i, j), (a, b) in zip([(0, 0), (-1, 0), (-1, -1), (0, -1)],
-                              [(0, 0), (-1, 0), (-1, -1), (0, -1)]):
+    for (i, j), (a, b) in zip(
+        [(0, 0), (-1, 0), (-1, -1), (0, -1)], [(0, 0), (-1, 0), (-1, -1), (0, -1)]
+    ):
         corner = samples[i, j] * np.array([1.0, (R - t / 2) / R, (R - t / 2) / R])
         np.testing.assert_allclose(grid[a, b], corner, atol=1e-6)
 
@@ -146,8 +152,9 @@ def test_ribs_planar_and_inside_their_plane(model, developed, job):
             assert np.abs(_world(rib) @ plane[:3] - plane[3]).max() < 0.05
             assert polygon_area(rib.outline) > 0
             holes = len(rib.holes)
-            np.testing.assert_allclose(rib.area, polygon_area(rib.outline)
-                                       - holes * np.pi * d ** 2 / 4)
+            np.testing.assert_allclose(
+                rib.area, polygon_area(rib.outline) - holes * np.pi * d**2 / 4
+            )
             np.testing.assert_allclose(rib.volume, rib.area * t_rib, rtol=1e-3)
             interior = developed.layout.side_neighbours[p, s] >= 0
             assert (holes > 0) == interior
@@ -185,7 +192,7 @@ def test_parts_of_one_panel_do_not_overlap(model):
     shapes = {pid: occ.from_brep(p.brep) for pid, p in parts.items()}
     ids = sorted(shapes)
     for i, a in enumerate(ids):
-        for b in ids[i + 1:]:
+        for b in ids[i + 1 :]:
             smaller = min(parts[a].volume, parts[b].volume)
             assert occ.common_volume(shapes[a], shapes[b]) < 1e-4 * smaller, (a, b)
     assert model.metrics["clash"]["clashes"] == 0
@@ -267,8 +274,9 @@ def test_step_assembly_round_trip(model, tmp_path):
         assert np.linalg.norm(centres[0][:, None] - centres[1][None], axis=2).min(1).max() < 0.1
     files = write_panel_steps(model, tmp_path / "panels")
     assert files == {pid: f"{pid}.step" for pid in model.developed.panel_ids}
-    assert sorted(read_step_parts(tmp_path / "panels" / "P002.step")) == \
-        sorted(p.id for p in model.parts_of("P002"))
+    assert sorted(read_step_parts(tmp_path / "panels" / "P002.step")) == sorted(
+        p.id for p in model.parts_of("P002")
+    )
     glb = write_glb(model, tmp_path / "preview.glb")
     assert glb.read_bytes()[:4] == b"glTF"
 
@@ -282,8 +290,12 @@ def test_cladding_gives_top_sheets_only(developed, job):
 
 def test_buildup_offsets(job):
     t, h, b = 3.0, 150.0, 3.0
-    assert buildup_offsets(job) == {"top_outer": 0.0, "top_inner": -t, "bottom_upper": -t - h,
-                                    "bottom_lower": -t - h - b}
+    assert buildup_offsets(job) == {
+        "top_outer": 0.0,
+        "top_inner": -t,
+        "bottom_upper": -t - h,
+        "bottom_lower": -t - h - b,
+    }
     low = buildup_offsets(job.replace(sandwich={"design_face": "bottom-outer"}))
     assert low["bottom_lower"] == pytest.approx(0.0) and low["top_outer"] == t + h + b
     mid = buildup_offsets(job.replace(sandwich={"design_face": "middle"}))
@@ -292,8 +304,9 @@ def test_buildup_offsets(job):
 
 def test_bottom_outer_design_face_and_outer_fibre():
     d = cylinder_developed(n_arc=1, n_len=1)
-    job = Job.from_dict({"sandwich": {"design_face": "bottom-outer"},
-                         "cutting": {"neutral_fibre": "outer"}})
+    job = Job.from_dict(
+        {"sandwich": {"design_face": "bottom-outer"}, "cutting": {"neutral_fibre": "outer"}}
+    )
     model = build(d, job, jobs=1)
     bot = model.parts[1].surface_grid
     depth = job.sandwich.total_depth
@@ -310,8 +323,9 @@ def test_parallel_build_matches_inline(model, developed, job):
     assert calls == [1, 1, 1, 1]
     assert parallel.metrics["bolt_holes"] == model.metrics["bolt_holes"] > 0
     assert [p.id for p in parallel.parts] == [p.id for p in model.parts]
-    np.testing.assert_allclose([p.volume for p in parallel.parts],
-                               [p.volume for p in model.parts], rtol=1e-12)
+    np.testing.assert_allclose(
+        [p.volume for p in parallel.parts], [p.volume for p in model.parts], rtol=1e-12
+    )
 
 
 def test_clip_polyline_cuts_on_the_line():
@@ -348,10 +362,12 @@ def test_design_3dm_holds_exact_panel_surfaces_and_layers(model, developed, tmp_
         du, dv = surface.Domain(0), surface.Domain(1)
         k = developed.samples.shape[1]
         for i, j in ((0, 0), (k // 2, 3), (k - 1, k - 1)):
-            point = surface.PointAt(du.T0 + i / (k - 1) * (du.T1 - du.T0),
-                                    dv.T0 + j / (k - 1) * (dv.T1 - dv.T0))
-            np.testing.assert_allclose([point.X, point.Y, point.Z], developed.samples[p, i, j],
-                                       atol=1e-6)
+            point = surface.PointAt(
+                du.T0 + i / (k - 1) * (du.T1 - du.T0), dv.T0 + j / (k - 1) * (dv.T1 - dv.T0)
+            )
+            np.testing.assert_allclose(
+                [point.X, point.Y, point.Z], developed.samples[p, i, j], atol=1e-6
+            )
     assert sorted(dot.Geometry.Text for dot in by_layer["labels"]) == list(developed.panel_ids)
 
 

@@ -10,8 +10,9 @@ from fabpanel.flat import audit_dxf, nest, validate_nests, write_nests
 from fabpanel.flat.nest import bounding_box_plates
 from fabpanel.job import Job
 
-JOB = Job.from_dict({"cutting": {"nest_time": "0 s", "plate_length": "2000 mm",
-                                 "plate_width": "1000 mm"}})
+JOB = Job.from_dict(
+    {"cutting": {"nest_time": "0 s", "plate_length": "2000 mm", "plate_width": "1000 mm"}}
+)
 
 
 def rectangle(w, h):
@@ -23,9 +24,16 @@ def l_shape(w, h, t):
 
 
 def flat_part(pid, outline, thickness=3.0, holes=()):
-    return FlatPart(id=pid, kind="rib", panel_id=pid[:4], material="S235", thickness=thickness,
-                    outline=outline, round_holes=holes,
-                    labels=((pid, *outline.mean(axis=0).tolist(), 10.0, 0.0),))
+    return FlatPart(
+        id=pid,
+        kind="rib",
+        panel_id=pid[:4],
+        material="S235",
+        thickness=thickness,
+        outline=outline,
+        round_holes=holes,
+        labels=((pid, *outline.mean(axis=0).tolist(), 10.0, 0.0),),
+    )
 
 
 def mixed_parts() -> FlatParts:
@@ -33,11 +41,13 @@ def mixed_parts() -> FlatParts:
     parts = []
     for i in range(8):
         w, h = rng.uniform(300, 700), rng.uniform(200, 500)
-        parts.append(flat_part(f"P{i:03d}-REC", rectangle(w, h),
-                               holes=(Hole((w / 2, h / 2), 40.0),)))
+        parts.append(
+            flat_part(f"P{i:03d}-REC", rectangle(w, h), holes=(Hole((w / 2, h / 2), 40.0),))
+        )
     for i in range(6):
-        parts.append(flat_part(f"P{i:03d}-L", l_shape(rng.uniform(300, 600),
-                                                      rng.uniform(300, 600), 120.0)))
+        parts.append(
+            flat_part(f"P{i:03d}-L", l_shape(rng.uniform(300, 600), rng.uniform(300, 600), 120.0))
+        )
     for i in range(6):
         parts.append(flat_part(f"P{i:03d}-STR", rectangle(rng.uniform(900, 1600), 150.0)))
     return FlatParts(parts=tuple(parts))
@@ -68,15 +78,29 @@ def test_validate_nests_catches_overlap(mixed):
     plate = nests.plates[0]
     moved = list(plate.placements)
     moved[1] = type(moved[1])(moved[1].part_id, moved[0].transform)
-    broken = type(nests)(plates=(type(plate)(plate.index, plate.material, plate.thickness,
-                                             plate.size, tuple(moved), plate.utilisation),
-                                 *nests.plates[1:]))
+    broken = type(nests)(
+        plates=(
+            type(plate)(
+                plate.index,
+                plate.material,
+                plate.thickness,
+                plate.size,
+                tuple(moved),
+                plate.utilisation,
+            ),
+            *nests.plates[1:],
+        )
+    )
     assert any("apart" in e for e in validate_nests(broken, flat, JOB))
 
 
 def test_oversize_part_is_an_issue():
-    flat = FlatParts(parts=(flat_part("P900-BIG", rectangle(2500, 1200)),
-                            flat_part("P901-OK", rectangle(500, 400))))
+    flat = FlatParts(
+        parts=(
+            flat_part("P900-BIG", rectangle(2500, 1200)),
+            flat_part("P901-OK", rectangle(500, 400)),
+        )
+    )
     nests = nest(flat, JOB)
     assert [(i.code, i.item) for i in nests.issues] == [("part-too-large", "P900-BIG")]
     assert "P900-BIG" in nests.issues[0].message
@@ -93,8 +117,12 @@ def test_rotation_needed_to_fit():
 
 
 def test_groups_by_thickness():
-    flat = FlatParts(parts=(flat_part("P001-A", rectangle(400, 300), 3.0),
-                            flat_part("P001-B", rectangle(400, 300), 8.0)))
+    flat = FlatParts(
+        parts=(
+            flat_part("P001-A", rectangle(400, 300), 3.0),
+            flat_part("P001-B", rectangle(400, 300), 8.0),
+        )
+    )
     nests = nest(flat, JOB)
     assert sorted(p.thickness for p in nests.plates) == [3.0, 8.0]
     assert validate_nests(nests, flat, JOB) == []
@@ -103,8 +131,9 @@ def test_groups_by_thickness():
 def test_same_seed_same_placements(mixed):
     flat, first = mixed
     second = nest(flat, JOB)
-    assert [[pl.part_id for pl in p.placements] for p in first.plates] == \
-        [[pl.part_id for pl in p.placements] for p in second.plates]
+    assert [[pl.part_id for pl in p.placements] for p in first.plates] == [
+        [pl.part_id for pl in p.placements] for p in second.plates
+    ]
     for a, b in zip(first.plates, second.plates):
         for pa, pb in zip(a.placements, b.placements):
             np.testing.assert_allclose(pa.transform, pb.transform, atol=1e-9)
@@ -130,9 +159,12 @@ def test_write_nests(mixed, tmp_path):
     for index, entity in enumerate(cuts):
         if entity.dxf.layer != "CUT-INNER":
             continue
-        centre = (entity.dxf.center if entity.dxftype() == "CIRCLE"
-                  else np.mean([p[:2] for p in entity.get_points()], axis=0))
-        following = next(e for e in cuts[index + 1:] if e.dxf.layer == "CUT-OUTER")
+        centre = (
+            entity.dxf.center
+            if entity.dxftype() == "CIRCLE"
+            else np.mean([p[:2] for p in entity.get_points()], axis=0)
+        )
+        following = next(e for e in cuts[index + 1 :] if e.dxf.layer == "CUT-OUTER")
         outline = Polygon([p[:2] for p in following.get_points()])
         assert outline.contains(Point(centre[0], centre[1]))
     assert max(i for i, x in enumerate(layers) if x == "ETCH") < layers.index("CUT-OUTER")
@@ -155,15 +187,20 @@ def test_plate_files_hold_the_parts_at_their_spacing(mixed, tmp_path):
     contours, net = 0, 0.0
     for plate in nests.plates:
         path = tmp_path / "nests" / plate_files[plate.name][0]
-        outers = [Polygon([(v.x, v.y) for v in make_path(e).flattening(0.01)])
-                  for e in ezdxf.readfile(path).modelspace().query('LWPOLYLINE[layer=="CUT-OUTER"]')]
+        outers = [
+            Polygon([(v.x, v.y) for v in make_path(e).flattening(0.01)])
+            for e in ezdxf.readfile(path).modelspace().query('LWPOLYLINE[layer=="CUT-OUTER"]')
+        ]
         assert len(outers) == len(plate.placements)
-        usable = box(cutting.plate_margin, cutting.plate_margin,
-                     cutting.plate_length - cutting.plate_margin,
-                     cutting.plate_width - cutting.plate_margin).buffer(0.05)
+        usable = box(
+            cutting.plate_margin,
+            cutting.plate_margin,
+            cutting.plate_length - cutting.plate_margin,
+            cutting.plate_width - cutting.plate_margin,
+        ).buffer(0.05)
         assert all(usable.contains(p) for p in outers)
         for i, a in enumerate(outers):
-            for b in outers[i + 1:]:
+            for b in outers[i + 1 :]:
                 assert a.distance(b) >= cutting.part_spacing - 0.05
         contours += len(outers)
         net += part_area_from_dxf(path)
@@ -172,10 +209,12 @@ def test_plate_files_hold_the_parts_at_their_spacing(mixed, tmp_path):
 
 
 def test_quarter_turns_only_and_parts_as_high_as_the_plate():
-    flat = FlatParts(parts=(flat_part("P001-A", rectangle(800, 300)),
-                            flat_part("P002-B", rectangle(600, 200))))
-    turned = Job.from_dict({**JOB.to_dict(), "cutting": {**JOB.to_dict()["cutting"],
-                                                         "rotations": [90, 270]}})
+    flat = FlatParts(
+        parts=(flat_part("P001-A", rectangle(800, 300)), flat_part("P002-B", rectangle(600, 200)))
+    )
+    turned = Job.from_dict(
+        {**JOB.to_dict(), "cutting": {**JOB.to_dict()["cutting"], "rotations": [90, 270]}}
+    )
     nests = nest(flat, turned)
     assert validate_nests(nests, flat, turned) == [] and not nests.issues
     # a part whose grown shape is exactly as high as the usable plate is refused, not crashed

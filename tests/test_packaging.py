@@ -43,7 +43,8 @@ def _setuptools_version() -> tuple[int, ...]:
 pytestmark = pytest.mark.skipif(
     _setuptools_version() < (68,),
     reason="building the wheel without network needs the build requirement setuptools>=68 in "
-           "the test environment (pip install 'setuptools>=68')")
+    "the test environment (pip install 'setuptools>=68')",
+)
 
 
 def _env(venv: Path) -> dict[str, str]:
@@ -56,11 +57,20 @@ def _env(venv: Path) -> dict[str, str]:
 
 
 def _run(args: list, cwd: Path, env: dict | None = None, check: bool = True):
-    done = subprocess.run([str(a) for a in args], cwd=cwd, env=env, capture_output=True,
-                          text=True, timeout=300, check=False)
+    done = subprocess.run(
+        [str(a) for a in args],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
     if check:
-        assert done.returncode == 0, (f"{' '.join(map(str, args))} exited {done.returncode}\n"
-                                      f"{done.stdout[-3000:]}\n{done.stderr[-3000:]}")
+        assert done.returncode == 0, (
+            f"{' '.join(map(str, args))} exited {done.returncode}\n"
+            f"{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
+        )
     return done
 
 
@@ -72,27 +82,53 @@ def installed(tmp_path_factory) -> SimpleNamespace:
     source.mkdir()
     for name in ("pyproject.toml", "README.md"):
         shutil.copy2(ROOT / name, source / name)
-    shutil.copytree(ROOT / "fabpanel", source / "fabpanel",
-                    ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.egg-info"))
+    shutil.copytree(
+        ROOT / "fabpanel",
+        source / "fabpanel",
+        ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.egg-info"),
+    )
     wheels = base / "wheels"
     pip = [sys.executable, "-m", "pip", "--disable-pip-version-check"]
-    _run([*pip, "wheel", "-q", "--no-deps", "--no-build-isolation", "--no-index", "-w", wheels,
-          source], cwd=base)
+    _run(
+        [
+            *pip,
+            "wheel",
+            "-q",
+            "--no-deps",
+            "--no-build-isolation",
+            "--no-index",
+            "-w",
+            wheels,
+            source,
+        ],
+        cwd=base,
+    )
     (wheel,) = wheels.glob("fabpanel-*.whl")
 
     venv = base / "venv"
     _run([sys.executable, "-m", "venv", "--without-pip", venv], cwd=base)
     python = venv / "bin" / "python"
     _run([*pip, "--python", python, "install", "-q", "--no-deps", "--no-index", wheel], cwd=base)
-    purelib = Path(_run([python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
-                        cwd=base).stdout.strip())
+    purelib = Path(
+        _run(
+            [python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"], cwd=base
+        ).stdout.strip()
+    )
     # the dependencies, from the running interpreter's site-packages (not copied)
     (purelib / "_fabpanel_test_dependencies.pth").write_text(
-        "".join(f"{folder}\n" for folder in site.getsitepackages()))
-    work = base / "work"                                   # the user's folder
+        "".join(f"{folder}\n" for folder in site.getsitepackages())
+    )
+    work = base / "work"  # the user's folder
     work.mkdir()
-    return SimpleNamespace(wheel=wheel, venv=venv, python=python, purelib=purelib,
-                           fabpanel=venv / "bin" / "fabpanel", work=work, env=_env(venv))
+    return SimpleNamespace(
+        wheel=wheel,
+        venv=venv,
+        python=python,
+        purelib=purelib,
+        fabpanel=venv / "bin" / "fabpanel",
+        work=work,
+        env=_env(venv),
+    )
 
 
 def test_wheel_ships_the_templates_and_the_demo(installed):
@@ -102,11 +138,14 @@ def test_wheel_ships_the_templates_and_the_demo(installed):
     for name in (*DEMO_FILES, "barrel_vault.py", "__init__.py"):
         assert f"fabpanel/examples/{name}" in names
     # only the package: not the tests, not the top-level example shapes (test fixtures)
-    assert all(n.startswith("fabpanel/") or n.split("/")[0].endswith(".dist-info")
-               for n in names)
+    assert all(n.startswith("fabpanel/") or n.split("/")[0].endswith(".dist-info") for n in names)
     assert not [n for n in names if n.endswith((".obj", ".png", ".html"))]
-    assert "fabpanel = fabpanel.cli:main" in zipfile.ZipFile(installed.wheel).read(
-        next(n for n in names if n.endswith(".dist-info/entry_points.txt"))).decode()
+    assert (
+        "fabpanel = fabpanel.cli:main"
+        in zipfile.ZipFile(installed.wheel)
+        .read(next(n for n in names if n.endswith(".dist-info/entry_points.txt")))
+        .decode()
+    )
 
 
 _PROBE = """
@@ -146,8 +185,10 @@ def _grid_obj(path: Path, nx: int = 9, ny: int = 5) -> Path:
     i, j = np.meshgrid(np.arange(nx - 1), np.arange(ny - 1), indexing="ij")
     a = (i * ny + j).ravel()
     quads = np.stack([a, a + ny, a + ny + 1, a + 1], axis=1)
-    path.write_text("".join(f"v {px:.6f} {py:.6f} {pz:.6f}\n" for px, py, pz in vertices)
-                    + "".join("f " + " ".join(str(k + 1) for k in q) + "\n" for q in quads))
+    path.write_text(
+        "".join(f"v {px:.6f} {py:.6f} {pz:.6f}\n" for px, py, pz in vertices)
+        + "".join("f " + " ".join(str(k + 1) for k in q) + "\n" for q in quads)
+    )
     return path
 
 
@@ -174,14 +215,33 @@ def test_installed_fabpanel_runs_outside_the_checkout(installed):
     assert Path(found["demo_input"]) == package / "examples" / "barrel-vault.step"
     assert found["demo_area_mm2"] == pytest.approx(np.pi * 4000 * 12000, rel=1e-3)
     assert found["demo_help"] == 0
-    assert "cladding" in found["unknown_template"]        # the installed templates are listed
+    assert "cladding" in found["unknown_template"]  # the installed templates are listed
 
     _grid_obj(work / "patch.obj")
-    before = sorted(p.relative_to(package) for p in package.rglob("*")
-                    if "__pycache__" not in p.parts)
-    _run([fabpanel, "export", "patch.obj", "--units", "m", "--panel-size", "1 m", "--until",
-          "cut", "--jobs", "1", "--out", "out"], cwd=work, env=env)
+    before = sorted(
+        p.relative_to(package) for p in package.rglob("*") if "__pycache__" not in p.parts
+    )
+    _run(
+        [
+            fabpanel,
+            "export",
+            "patch.obj",
+            "--units",
+            "m",
+            "--panel-size",
+            "1 m",
+            "--until",
+            "cut",
+            "--jobs",
+            "1",
+            "--out",
+            "out",
+        ],
+        cwd=work,
+        env=env,
+    )
     assert (work / "out" / "manifest.json").is_file()
-    after = sorted(p.relative_to(package) for p in package.rglob("*")
-                   if "__pycache__" not in p.parts)
-    assert after == before                                 # nothing written into the package
+    after = sorted(
+        p.relative_to(package) for p in package.rglob("*") if "__pycache__" not in p.parts
+    )
+    assert after == before  # nothing written into the package

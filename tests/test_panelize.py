@@ -10,7 +10,7 @@ import pytest
 from fabpanel import GeometryError, Job, load_surface, panelize
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # shipped: fabpanel demo
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"  # shipped: fabpanel demo
 RADIUS, LENGTH = 4000.0, 12000.0
 
 
@@ -31,7 +31,7 @@ def _radius(points):
 def test_step_grid_follows_the_target_size_and_lies_on_the_cylinder(vault_step):
     job = Job.from_dict({"panelize": {"panel_size": "1.2 m"}})
     layout = panelize(vault_step, job)
-    assert len(layout.quads) == 10 * 10          # arc 12.57 m / 1.2 m -> 10, length 12 m -> 10
+    assert len(layout.quads) == 10 * 10  # arc 12.57 m / 1.2 m -> 10, length 12 m -> 10
     np.testing.assert_allclose(_radius(layout.vertices), RADIUS, atol=1e-6)
     lengths = layout.metrics["edge_length_mm"]
     # arc panels are 1256.6 mm (chord 1254.0), panels along x 1200 mm
@@ -56,7 +56,7 @@ def test_neighbours_are_consistent(vault_step):
     for panel, row in enumerate(nb):
         for other in row[row >= 0]:
             assert panel in nb[other]
-    assert (nb < 0).sum() == 2 * (3 + 4)          # boundary sides
+    assert (nb < 0).sum() == 2 * (3 + 4)  # boundary sides
 
 
 def test_mesh_grid_matches_the_exact_one(vault_obj, vault_step):
@@ -79,10 +79,18 @@ def test_grid_refuses_surfaces_with_openings(tmp_path):
 
     # a 3 x 3 square plate with the middle square missing: one opening
     vertices = [(x, y, 0.0) for y in range(4) for x in range(4)]
-    quads = [(y * 4 + x, y * 4 + x + 1, y * 4 + x + 5, y * 4 + x + 4)
-             for y in range(3) for x in range(3) if (x, y) != (1, 1)]
+    quads = [
+        (y * 4 + x, y * 4 + x + 1, y * 4 + x + 5, y * 4 + x + 4)
+        for y in range(3)
+        for x in range(3)
+        if (x, y) != (1, 1)
+    ]
     path = tmp_path / "frame.obj"
-    path.write_text("\n".join(f"v {x} {y} {z}" for x, y, z in vertices) + "\n"
-                    + "\n".join("f " + " ".join(str(i + 1) for i in q) for q in quads) + "\n")
+    path.write_text(
+        "\n".join(f"v {x} {y} {z}" for x, y, z in vertices)
+        + "\n"
+        + "\n".join("f " + " ".join(str(i + 1) for i in q) for q in quads)
+        + "\n"
+    )
     with pytest.raises((GeometryError, InputError), match="boundary loop"):
         panelize(load_surface(path, "m"), Job(panelize={"method": "grid"}))

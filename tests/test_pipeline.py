@@ -13,10 +13,10 @@ import fabpanel as fp
 from fabpanel.tolerances import TOLERANCES
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # shipped: fabpanel demo
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"  # shipped: fabpanel demo
 # a smaller vault than the example keeps the test fast: radius 2 m, length 2.4 m, 8 panels
 RADIUS, LENGTH = 2000.0, 2400.0
-GRID_U, GRID_V = 4, 2           # 4 panels around the arc (45 degrees, 1571 mm), 2 along x
+GRID_U, GRID_V = 4, 2  # 4 panels around the arc (45 degrees, 1571 mm), 2 along x
 
 
 @pytest.fixture(scope="session")
@@ -35,8 +35,7 @@ def _vault_path(small_vault):
 
 def _job(**changes) -> fp.Job:
     job = fp.Job.from_toml(DEMO / "barrel-vault.toml")
-    job = fp.Job.from_dict({**job.to_dict(), "input": {"path": str(VAULT)}},
-                           base_dir=VAULT.parent)
+    job = fp.Job.from_dict({**job.to_dict(), "input": {"path": str(VAULT)}}, base_dir=VAULT.parent)
     sections = {"panelize": {"grid_u": GRID_U, "grid_v": GRID_V}, "cutting": {"nest_time": "0 s"}}
     for section, values in changes.items():
         sections[section] = {**sections.get(section, {}), **values}
@@ -53,9 +52,17 @@ def vault_run(tmp_path_factory, small_vault):
 
 def test_output_contract(vault_run):
     out = vault_run.out_dir
-    for name in ("manifest.json", "bom.csv", "model/assembly.step", "model/preview.glb",
-                 "model/design.3dm", "model/panels.obj", "model/developed.obj",
-                 "report/summary.json", "report/index.html"):
+    for name in (
+        "manifest.json",
+        "bom.csv",
+        "model/assembly.step",
+        "model/preview.glb",
+        "model/design.3dm",
+        "model/panels.obj",
+        "model/developed.obj",
+        "report/summary.json",
+        "report/index.html",
+    ):
         assert (out / name).is_file(), name
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["units"]["length"] == "mm"
@@ -81,8 +88,9 @@ def test_output_contract(vault_run):
     assert max(abs(r - (RADIUS - 1.5)) for r in radii) <= 2
     assert sum(int(r["pierces"]) for r in rows) == manifest["metrics"]["nest"]["pierces"]
     assert sum(float(r["cut_length_mm"]) for r in rows) == pytest.approx(
-        manifest["metrics"]["nest"]["cut_length_mm"], abs=0.05 * len(rows))
-    assert not list(out.parent.glob(".out.*"))              # no staging folder left
+        manifest["metrics"]["nest"]["cut_length_mm"], abs=0.05 * len(rows)
+    )
+    assert not list(out.parent.glob(".out.*"))  # no staging folder left
     report = (out / "report" / "index.html").read_text()
     # the default (global) rationalisation draws curvature before/after and the deviation map
     assert 'alt="Gaussian curvature before and after"' in report
@@ -116,10 +124,12 @@ def test_unrolled_sheet_edges_equal_the_3d_arc_lengths(vault_run):
     for part in sheets:
         arc = mid_radius[part.kind] * angle
         expected = np.array([arc, length, arc, length])
-        np.testing.assert_allclose(part.edge_lengths_flat, expected,
-                                   atol=TOLERANCES.unrolled_edge, err_msg=part.id)
-        np.testing.assert_allclose(part.edge_lengths_3d, expected,
-                                   atol=TOLERANCES.unrolled_edge, err_msg=part.id)
+        np.testing.assert_allclose(
+            part.edge_lengths_flat, expected, atol=TOLERANCES.unrolled_edge, err_msg=part.id
+        )
+        np.testing.assert_allclose(
+            part.edge_lengths_3d, expected, atol=TOLERANCES.unrolled_edge, err_msg=part.id
+        )
         assert part.max_strain < 1e-5
 
 
@@ -189,8 +199,11 @@ def test_same_job_same_output(tmp_path):
 
     def without_timings(value):
         if isinstance(value, dict):
-            return {k: without_timings(v) for k, v in value.items()
-                    if k not in {"time_s", "seconds", "versions"}}
+            return {
+                k: without_timings(v)
+                for k, v in value.items()
+                if k not in {"time_s", "seconds", "versions"}
+            }
         if isinstance(value, list):
             return [without_timings(v) for v in value]
         return value
@@ -206,16 +219,21 @@ def test_force_replaces_only_after_success(tmp_path):
     fp.run(_job(), out_dir=out, until="panelize")
     with pytest.raises(fp.InputError):
         fp.run(_job(), out_dir=out, until="panelize")
-    broken = fp.Job.from_dict({**_job().to_dict(), "input": {"path": "missing.step"}},
-                              base_dir=EXAMPLES)
+    broken = fp.Job.from_dict(
+        {**_job().to_dict(), "input": {"path": "missing.step"}}, base_dir=EXAMPLES
+    )
     with pytest.raises(fp.InputError):
         fp.run(broken, out_dir=out, force=True)
-    assert (out / "manifest.json").is_file()                 # the old run is still there
+    assert (out / "manifest.json").is_file()  # the old run is still there
 
 
 def test_mesh_input_runs_end_to_end(tmp_path):
-    job = fp.Job.for_input(EXAMPLES / "barrel-vault.obj", units="m",
-                           panelize={"grid_u": 6, "grid_v": 10}, cutting={"nest_time": "0 s"})
+    job = fp.Job.for_input(
+        EXAMPLES / "barrel-vault.obj",
+        units="m",
+        panelize={"grid_u": 6, "grid_v": 10},
+        cutting={"nest_time": "0 s"},
+    )
     result = fp.run(job, out_dir=tmp_path / "out", jobs=2, until="build")
     assert len(result.model.parts) == 10 * 60
     assert not [i for i in result.issues if i.severity == "error"]
@@ -230,8 +248,9 @@ def test_mesh_input_runs_end_to_end(tmp_path):
 def test_global_develop_runs_end_to_end(tmp_path):
     # the optimiser's panels feed the build and the cut like the projected ones: a cylinder
     # stays a cylinder, the sheets unroll to the 3D lengths, ribs stay planar
-    result = fp.run(_job(develop={"method": "global"}), out_dir=tmp_path / "out", until="cut",
-                    jobs=2)
+    result = fp.run(
+        _job(develop={"method": "global"}), out_dir=tmp_path / "out", until="cut", jobs=2
+    )
     metrics = result.developed.metrics
     assert metrics["method"] == "global" and metrics["solver"]["converged"]
     assert metrics["deviation_mm"]["max"] < 0.05 and metrics["gap_mm_max"] == 0.0

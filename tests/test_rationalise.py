@@ -17,7 +17,7 @@ from fabpanel.develop.project import sample_panels
 from fabpanel.develop.sides import across_sides
 from fabpanel.surface import SurfaceQuery
 
-DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # shipped: fabpanel demo
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"  # shipped: fabpanel demo
 
 
 @pytest.fixture(scope="module")
@@ -28,7 +28,7 @@ def vault():
 
 
 def test_sample_mesh_shares_side_samples_by_topology(vault):
-    surface, job, layout = vault
+    surface, _job, layout = vault
     samples, _ = sample_panels(layout, SurfaceQuery(surface), 5)
     mesh = sample_mesh(layout, samples)
     own, theirs = across_sides(layout, mesh.ids[..., None].astype(float))
@@ -46,8 +46,9 @@ def test_jacobian_matches_finite_differences(tmp_path):
     query = SurfaceQuery(surface)
     layout = panelize(surface, Job.from_dict({"panelize": {"grid_u": 2, "grid_v": 2}}), query)
     samples, normals = sample_panels(layout, query, 4)
-    solver = GlobalOptimiser(layout, samples, normals, query, closeness=0.1, fairness=0.1,
-                             rib=1.0, depth=150.0)
+    solver = GlobalOptimiser(
+        layout, samples, normals, query, closeness=0.1, fairness=0.1, rib=1.0, depth=150.0
+    )
     rng = np.random.default_rng(0)
     z = solver.z + rng.normal(0, 1e-3, solver.z.shape)
     x, *_ = solver.unpack(z)
@@ -73,23 +74,33 @@ def test_global_keeps_a_cylinder_exactly(vault):
     assert metrics["gap_mm_max"] == 0.0
     assert metrics["kink_deg"]["max"] < 0.05
     assert metrics["rib_normal_angle_deg_max"] < 0.05
-    np.testing.assert_allclose(np.hypot(developed.samples[..., 1], developed.samples[..., 2]),
-                               4000.0, atol=0.05)
+    np.testing.assert_allclose(
+        np.hypot(developed.samples[..., 1], developed.samples[..., 2]), 4000.0, atol=0.05
+    )
 
 
 def test_global_keeps_neighbours_joined_on_a_sphere_cap(tmp_path):
     surface = _cap(tmp_path)
-    job = Job.from_dict({"panelize": {"grid_u": 3, "grid_v": 3},
-                         "develop": {"method": "global", "max_iterations": 15}})
+    job = Job.from_dict(
+        {
+            "panelize": {"grid_u": 3, "grid_v": 3},
+            "develop": {"method": "global", "max_iterations": 15},
+        }
+    )
     developed = develop(panelize(surface, job), surface, job)
     assert developed.metrics["gap_mm_max"] == 0.0
     own, theirs = across_sides(developed.layout, developed.samples)
     shared = developed.layout.side_neighbours >= 0
     np.testing.assert_array_equal(own[shared], theirs[shared])
     # orientation kept: every normal on the outer side
-    assert (np.einsum("mijc,mijc->mij", developed.normals,
-                      developed.samples / np.linalg.norm(developed.samples, axis=-1,
-                                                         keepdims=True)) > 0.9).all()
+    assert (
+        np.einsum(
+            "mijc,mijc->mij",
+            developed.normals,
+            developed.samples / np.linalg.norm(developed.samples, axis=-1, keepdims=True),
+        )
+        > 0.9
+    ).all()
 
 
 def test_grid_normals_of_a_cylinder_are_radial():
@@ -99,7 +110,7 @@ def test_grid_normals_of_a_cylinder_are_radial():
     grid = np.stack([xx, 4000 * np.cos(tt), 4000 * np.sin(tt)], -1)[None]
     reference = np.stack([np.zeros_like(tt), np.cos(tt), np.sin(tt)], -1)[None]
     normals = grid_normals(grid, reference)
-    np.testing.assert_allclose(normals, reference, atol=5e-4)   # one-sided rule at the ends: O(h^2)
+    np.testing.assert_allclose(normals, reference, atol=5e-4)  # one-sided rule at the ends: O(h^2)
     np.testing.assert_allclose(normals[:, 1:-1], reference[:, 1:-1], atol=1e-5)
 
 
@@ -109,8 +120,7 @@ def test_loft_is_exact_on_a_cylinder_and_leaves_gaps_on_a_sphere(vault, tmp_path
     assert lofted.metrics["deviation_mm"]["max"] < 0.05
     assert lofted.metrics["gap_mm_max"] < 1e-6
     cap = _cap(tmp_path)
-    cap_job = Job.from_dict({"panelize": {"grid_u": 3, "grid_v": 3},
-                             "develop": {"method": "loft"}})
+    cap_job = Job.from_dict({"panelize": {"grid_u": 3, "grid_v": 3}, "develop": {"method": "loft"}})
     lofted = develop(panelize(cap, cap_job), cap, cap_job)
     # the rails of one panel are the straight end rulings of its neighbour: they part
     assert lofted.metrics["gap_mm_max"] > 10.0
@@ -142,11 +152,12 @@ def test_global_makes_a_sphere_cap_developable_closer_than_the_loft(tmp_path):
     assert optimised.metrics["panels_not_developable"] == 0
     assert optimised.metrics["gap_mm_max"] == 0.0
     assert lofted.metrics["gap_mm_max"] > 10.0
-    assert (optimised.metrics["deviation_mm"]["mean"]
-            < lofted.metrics["deviation_mm"]["mean"])
+    assert optimised.metrics["deviation_mm"]["mean"] < lofted.metrics["deviation_mm"]["mean"]
     # the Gauss image shrinks: less total |K| than the projected panels
-    assert (optimised.metrics["gauss_image_area"]["mean"]
-            < 0.2 * projected.metrics["gauss_image_area"]["mean"])
+    assert (
+        optimised.metrics["gauss_image_area"]["mean"]
+        < 0.2 * projected.metrics["gauss_image_area"]["mean"]
+    )
 
 
 def test_global_keeps_a_cone_in_place(tmp_path):
@@ -173,9 +184,9 @@ def test_global_makes_a_hypar_developable_closer_than_the_loft(tmp_path):
     optimised = develop(layout, hypar, job.replace(develop={"method": "global"}))
     assert projected.metrics["panels_not_developable"] == 9
     assert optimised.metrics["panels_not_developable"] == 0
-    assert optimised.metrics["unroll_strain"]["max"] < 5e-4          # the 0.05 % target
+    assert optimised.metrics["unroll_strain"]["max"] < 5e-4  # the 0.05 % target
     assert optimised.metrics["gap_mm_max"] == 0.0
     assert lofted.metrics["gap_mm_max"] > 10.0
     assert optimised.metrics["deviation_mm"]["mean"] < lofted.metrics["deviation_mm"]["mean"]
     assert optimised.metrics["rib_plane_residual_mm_max"] < 1.0
-    assert optimised.metrics["rib_plane_residual_mm_max_interior"] < 0.5      # the target
+    assert optimised.metrics["rib_plane_residual_mm_max_interior"] < 0.5  # the target

@@ -22,26 +22,42 @@ import fabpanel as fp
 from fabpanel.outdir import STAGING_MARK, sweep_stale
 
 
-def _vault_obj(path: Path, scale: float = 1.0, length: float = 6.0, width: float = 4.0,
-               rise: float = 0.8, n: int = 24) -> Path:
+def _vault_obj(
+    path: Path,
+    scale: float = 1.0,
+    length: float = 6.0,
+    width: float = 4.0,
+    rise: float = 0.8,
+    n: int = 24,
+) -> Path:
     """A shallow barrel vault (chord ``width``, along x ``length``), as an OBJ in metres x scale."""
-    x, y = np.meshgrid(np.linspace(0, length, n + 1), np.linspace(-width / 2, width / 2, n + 1),
-                       indexing="ij")
-    radius = (rise ** 2 + (width / 2) ** 2) / (2 * rise)
-    z = np.sqrt(radius ** 2 - y ** 2) - (radius - rise)
+    x, y = np.meshgrid(
+        np.linspace(0, length, n + 1), np.linspace(-width / 2, width / 2, n + 1), indexing="ij"
+    )
+    radius = (rise**2 + (width / 2) ** 2) / (2 * rise)
+    z = np.sqrt(radius**2 - y**2) - (radius - rise)
     points = np.stack([x, y, z], axis=-1).reshape(-1, 3) * scale
     i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
     v = (i * (n + 1) + j).ravel()
     quads = np.stack([v, v + n + 1, v + n + 2, v + 1], axis=1)
-    path.write_text("\n".join(f"v {a:.12g} {b:.12g} {c:.12g}" for a, b, c in points) + "\n"
-                    + "\n".join("f " + " ".join(str(q + 1) for q in quad) for quad in quads)
-                    + "\n")
+    path.write_text(
+        "\n".join(f"v {a:.12g} {b:.12g} {c:.12g}" for a, b, c in points)
+        + "\n"
+        + "\n".join("f " + " ".join(str(q + 1) for q in quad) for quad in quads)
+        + "\n"
+    )
     return path
 
 
 def _cli(*args: str, cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "fabpanel", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=timeout, check=False)
+    return subprocess.run(
+        [sys.executable, "-m", "fabpanel", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
 
 
 def _lines(text: str) -> list[str]:
@@ -49,8 +65,9 @@ def _lines(text: str) -> list[str]:
 
 
 def _tree(folder: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
-            if p.is_file()}
+    return {
+        str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()
+    }
 
 
 # ---------------------------------------------------------------------------------------------
@@ -69,8 +86,7 @@ def workdir(tmp_path) -> Path:
 @pytest.mark.parametrize("out", [".", "..", "base.obj", "job.toml"])
 def test_output_never_replaces_the_working_folder_or_an_input(workdir, out):
     before = _tree(workdir.parent)
-    result = _cli("export", "job.toml", "--out", out, "--force", "--until", "panelize",
-                  cwd=workdir)
+    result = _cli("export", "job.toml", "--out", out, "--force", "--until", "panelize", cwd=workdir)
     assert result.returncode == 2, result.stderr
     assert len(_lines(result.stderr)) == 1 and "error:" in result.stderr
     assert _tree(workdir.parent) == before
@@ -80,8 +96,9 @@ def test_output_folder_holding_the_input_is_refused(workdir):
     sub = workdir / "design"
     sub.mkdir()
     (workdir / "base.obj").rename(sub / "base.obj")
-    result = _cli("export", "design/base.obj", "--units", "m", "--out", "design", "--force",
-                  cwd=workdir)
+    result = _cli(
+        "export", "design/base.obj", "--units", "m", "--out", "design", "--force", cwd=workdir
+    )
     assert result.returncode == 2 and "base.obj" in result.stderr
     assert (sub / "base.obj").is_file()
 
@@ -90,10 +107,11 @@ def test_a_folder_that_is_not_fabpanel_output_is_never_replaced(workdir):
     mine = workdir / "mine"
     mine.mkdir()
     (mine / "drawing.dwg").write_text("precious")
-    result = _cli("export", "job.toml", "--out", "mine", "--force", "--until", "panelize",
-                  cwd=workdir)
+    result = _cli(
+        "export", "job.toml", "--out", "mine", "--force", "--until", "panelize", cwd=workdir
+    )
     assert result.returncode == 2 and "not a fabpanel output" in result.stderr
-    assert "--force" not in result.stderr.split(";")[-1]     # the fix is another folder
+    assert "--force" not in result.stderr.split(";")[-1]  # the fix is another folder
     assert (mine / "drawing.dwg").read_text() == "precious"
 
 
@@ -103,13 +121,12 @@ def test_an_earlier_output_is_replaced_with_force_and_an_empty_folder_is_used(wo
     assert first.returncode == 0, first.stderr
     again = _cli("export", "job.toml", "--out", "out", "--until", "panelize", cwd=workdir)
     assert again.returncode == 2 and "--force" in again.stderr
-    forced = _cli("export", "job.toml", "--out", "out", "--until", "panelize", "--force",
-                  cwd=workdir)
+    forced = _cli(
+        "export", "job.toml", "--out", "out", "--until", "panelize", "--force", cwd=workdir
+    )
     assert forced.returncode == 0, forced.stderr
-    assert json.loads((workdir / "out" / "manifest.json").read_text())["stages_run"] == \
-        ["panelize"]
-    assert sorted(p.name for p in workdir.iterdir()) == ["base.obj", "job.toml", "notes.txt",
-                                                          "out"]
+    assert json.loads((workdir / "out" / "manifest.json").read_text())["stages_run"] == ["panelize"]
+    assert sorted(p.name for p in workdir.iterdir()) == ["base.obj", "job.toml", "notes.txt", "out"]
 
 
 def test_stale_staging_folders_of_dead_runs_are_swept(tmp_path):
@@ -121,7 +138,7 @@ def test_stale_staging_folders_of_dead_runs_are_swept(tmp_path):
     live = tmp_path / f".out.partial-{os.getpid()}"
     live.mkdir()
     (live / STAGING_MARK).write_text(str(os.getpid()))
-    foreign = tmp_path / f".out.partial-{dead + 1}"           # no mark: not ours
+    foreign = tmp_path / f".out.partial-{dead + 1}"  # no mark: not ours
     foreign.mkdir()
     assert sweep_stale(target) == [stale]
     assert not stale.exists() and live.exists() and foreign.exists()
@@ -136,11 +153,14 @@ def _dead_pid() -> int:
 # ---------------------------------------------------------------------------------------------
 # unit and size mistakes, before any work
 # ---------------------------------------------------------------------------------------------
-@pytest.mark.parametrize(("scale", "units", "size", "hint"), [
-    (1000.0, "m", None, "--units mm"),             # mm coordinates declared as metres
-    (1.0, "mm", None, "--units m"),                # metre coordinates declared as mm
-    (1.0, "m", "0.05 m", "--panel-size"),           # 9600 panels on a 6 x 4 m vault
-])
+@pytest.mark.parametrize(
+    ("scale", "units", "size", "hint"),
+    [
+        (1000.0, "m", None, "--units mm"),  # mm coordinates declared as metres
+        (1.0, "mm", None, "--units m"),  # metre coordinates declared as mm
+        (1.0, "m", "0.05 m", "--panel-size"),  # 9600 panels on a 6 x 4 m vault
+    ],
+)
 def test_unit_and_size_mistakes_are_refused_at_once(tmp_path, scale, units, size, hint):
     mesh = _vault_obj(tmp_path / "vault.obj", scale=scale)
     args = ["export", "vault.obj", "--units", units, "--out", "out"]
@@ -150,7 +170,7 @@ def test_unit_and_size_mistakes_are_refused_at_once(tmp_path, scale, units, size
     result = _cli(*args, cwd=tmp_path, timeout=120)
     assert result.returncode == 2, result.stderr
     assert time.perf_counter() - started < 60
-    line, = _lines(result.stderr)
+    (line,) = _lines(result.stderr)
     assert hint in line and mesh.name in line and "panel" in line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["vault.obj"]
 
@@ -162,18 +182,43 @@ def test_max_panels_is_a_job_setting(tmp_path):
     job = fp.Job(panelize={"panel_size": "0.5 m", "max_panels": 50})
     with pytest.raises(fp.InputError, match="max_panels = 50"):
         check_panel_count(surface, job)
-    assert check_panel_count(surface, job.replace(panelize={"max_panels": 500})) == \
-        pytest.approx(surface.area / 500.0 ** 2)
+    assert check_panel_count(surface, job.replace(panelize={"max_panels": 500})) == pytest.approx(
+        surface.area / 500.0**2
+    )
 
 
 def test_a_bare_panel_size_takes_the_input_units(tmp_path):
     _vault_obj(tmp_path / "vault.obj")
-    result = _cli("export", "vault.obj", "--units", "m", "--panel-size", "2", "--until",
-                  "panelize", "--out", "out", cwd=tmp_path)
+    result = _cli(
+        "export",
+        "vault.obj",
+        "--units",
+        "m",
+        "--panel-size",
+        "1",
+        "--until",
+        "panelize",
+        "--out",
+        "out",
+        cwd=tmp_path,
+    )
     assert result.returncode == 0, result.stderr
-    assert "2 m" in result.stderr.splitlines()[0]                  # the note says how it read
+    assert "1 m" in result.stderr.splitlines()[0]  # the note says how it read
     manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
-    assert manifest["job"]["panelize"]["panel_size"] == "2000 mm"
+    assert manifest["job"]["panelize"]["panel_size"] == "1000 mm"
+
+
+def test_error_level_issues_exit_3_unless_allowed(tmp_path):
+    # 2 m grid panels on a 4 m wide vault: their sheets do not fit the 1500 mm plate
+    _vault_obj(tmp_path / "vault.obj")
+    args = ["export", "vault.obj", "--units", "m", "--panel-size", "2 m", "--until", "panelize"]
+    result = _cli(*args, "--out", "a", cwd=tmp_path)
+    assert result.returncode == 3, result.stderr
+    assert "panel-exceeds-plate" in (tmp_path / "a" / "manifest.json").read_text()
+    assert _lines(result.stderr)[-1].startswith("error: finished with")
+    allowed = _cli(*args, "--out", "b", "--allow-issues", cwd=tmp_path)
+    assert allowed.returncode == 0, allowed.stderr
+    assert "issue:" in allowed.stderr
 
 
 # ---------------------------------------------------------------------------------------------
@@ -200,12 +245,29 @@ def _start_build(tmp_path: Path) -> tuple[subprocess.Popen, Path]:
     _vault_obj(tmp_path / "vault.obj")
     (tmp_path / "job.toml").write_text(
         '[input]\npath = "vault.obj"\nunits = "m"\n[panelize]\npanel_size = "0.5 m"\n'
-        '[develop]\nmethod = "project"\n')
-    proc = subprocess.Popen([sys.executable, "-m", "fabpanel", "export", "job.toml", "--out",
-                             "out", "--until", "build", "--jobs", "2"], cwd=tmp_path,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        '[develop]\nmethod = "project"\n'
+    )
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "fabpanel",
+            "export",
+            "job.toml",
+            "--out",
+            "out",
+            "--until",
+            "build",
+            "--jobs",
+            "2",
+        ],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     deadline = time.monotonic() + 120
-    while len(_children(proc.pid)) < 2:                 # the build's workers are up
+    while len(_children(proc.pid)) < 2:  # the build's workers are up
         assert proc.poll() is None, proc.communicate()
         assert time.monotonic() < deadline, "the build never started"
         time.sleep(0.1)

@@ -31,13 +31,18 @@ FIXTURES = {
     "rectangle_2_1": [rect(0, 0, 2000, 1000)],
     "triangle": [ngon(3)],
     "pentagon": [ngon(5)],
-    "L": [np.array([[0, 0], [2000, 0], [2000, 1000], [1000, 1000], [1000, 2000], [0, 2000]],
-                   float)],
+    "L": [
+        np.array([[0, 0], [2000, 0], [2000, 1000], [1000, 1000], [1000, 2000], [0, 2000]], float)
+    ],
     "rect_square_hole": [rect(0, 0, 3000, 2000), rect(1000, 700, 2000, 1300)],
     "annulus": [circle((0, 0), 1000), circle((0, 0), 500)],
     "disc": [circle((0, 0), 1000)],
-    "rect_3_holes": [rect(0, 0, 4000, 1500), circle((700, 750), 300, 48),
-                     circle((2000, 750), 300, 48), circle((3300, 750), 300, 48)],
+    "rect_3_holes": [
+        rect(0, 0, 4000, 1500),
+        circle((700, 750), 300, 48),
+        circle((2000, 750), 300, 48),
+        circle((3300, 750), 300, 48),
+    ],
 }
 
 _CACHE: dict = {}
@@ -85,7 +90,7 @@ def test_hard_invariants(name):
         assert a not in nxt
         nxt[a] = b
     seen, nloops = set(), 0
-    for a in nxt:
+    for a in nxt:  # noqa: PLC0206 - walks the successor map, a moves along it
         if a in seen:
             continue
         nloops += 1
@@ -116,19 +121,24 @@ def test_hard_invariants(name):
             li = int(L.loop_of_vertex[v])
             assert li >= 0
             ring = LineString(np.vstack([loops[li], loops[li][:1]]))
-            assert ring.distance(Polygon(V[v:v + 1].repeat(3, 0)).centroid) < 1e-6
+            assert ring.distance(Polygon(V[v : v + 1].repeat(3, 0)).centroid) < 1e-6
         else:
             assert L.loop_of_vertex[v] == -1
     # singular = interior vertices of valence != 4
-    assert sorted(L.singular.tolist()) == sorted(v for v in range(nV)
-                                                 if v not in bverts and deg[v] != 4)
+    assert sorted(L.singular.tolist()) == sorted(
+        v for v in range(nV) if v not in bverts and deg[v] != 4
+    )
     # every input corner is a vertex
     for li, lp in enumerate(loops):
         p = np.asarray(lp)
         d_in = p - np.roll(p, 1, 0)
         d_out = np.roll(p, -1, 0) - p
-        turn = np.degrees(np.arctan2(d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0],
-                                     np.einsum("ij,ij->i", d_in, d_out)))
+        turn = np.degrees(
+            np.arctan2(
+                d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0],
+                np.einsum("ij,ij->i", d_in, d_out),
+            )
+        )
         for c in p[np.abs(turn) > 35.0]:
             assert np.linalg.norm(V - c, axis=1).min() < 1e-6
     # positive quads, areas add up to the domain
@@ -215,8 +225,9 @@ def test_opening_outside_is_rejected():
 
 def test_touching_openings_are_rejected():
     with pytest.raises(GeometryError, match="opening 1 touches"):
-        skeleton_layout([rect(0, 0, 3000, 1000), rect(500, 200, 1500, 800),
-                         rect(1500, 200, 2500, 800)])
+        skeleton_layout(
+            [rect(0, 0, 3000, 1000), rect(500, 200, 1500, 800), rect(1500, 200, 2500, 800)]
+        )
 
 
 def test_point_features_only_matched_when_on_a_vertex(caplog):
@@ -244,8 +255,14 @@ def test_rounded_corners_become_corners_at_any_sampling():
     # roof): the rounded corners must anchor branches, not vanish as noise (else: polar grid)
     t = np.linspace(0, np.pi / 2, 12, endpoint=False)
     arc = np.stack([np.cos(t), np.sin(t)], 1) * 2.5
-    outer = np.vstack([arc + [5.5, 3.5], arc @ [[0, 1], [-1, 0]] + [-5.5, 3.5],
-                       -arc + [-5.5, -3.5], arc @ [[0, -1], [1, 0]] + [5.5, -3.5]])
+    outer = np.vstack(
+        [
+            arc + [5.5, 3.5],
+            arc @ [[0, 1], [-1, 0]] + [-5.5, 3.5],
+            -arc + [-5.5, -3.5],
+            arc @ [[0, -1], [1, 0]] + [5.5, -3.5],
+        ]
+    )
     s = np.linspace(0, 2 * np.pi, 24, endpoint=False)
     hole = np.stack([2 + 1.5 * np.cos(s), 1 + np.sin(s)], 1)[::-1]
     for spacing in (0.1, 0.2, 0.4):

@@ -42,10 +42,11 @@ from fabpanel.structure.ccx import read_knots, surface_nodes
 from fabpanel.structure.checks import combinations, mode_extent, span_of, von_mises
 from fabpanel.structure.mesh import grid_quads, merge_nodes, resample_grids, sandwich_settings
 
-DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"   # shipped: fabpanel demo
-needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None,
-                               reason="CalculiX (ccx) is not installed: sudo apt-get install "
-                                      "calculix-ccx")
+DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"  # shipped: fabpanel demo
+needs_ccx = pytest.mark.skipif(
+    shutil.which("ccx") is None,
+    reason="CalculiX (ccx) is not installed: sudo apt-get install calculix-ccx",
+)
 
 
 def _solve(tmp_path, model, cases=(), buckle=None, modes=5):
@@ -73,8 +74,7 @@ def _element_of(model, node):
 def test_scordelis_lo_roof(tmp_path):
     # full roof, 16 x 16 S8R; reference 0.3024 ft = 92.17 mm (measured: -0.15 %)
     found = validation.scordelis_lo(tmp_path)
-    np.testing.assert_allclose(found["load_N"], [0, 0, -4.3092e-3 * found["area_mm2"]],
-                               rtol=1e-6)
+    np.testing.assert_allclose(found["load_N"], [0, 0, -4.3092e-3 * found["area_mm2"]], rtol=1e-6)
     assert abs(found["error"]) < 0.02, found
     assert abs(found["error"]) < 0.005
 
@@ -118,16 +118,16 @@ def test_plate_under_pressure_surface_stresses_include_bending(tmp_path):
     s_top, s_bot = stress[top[e, local]], stress[bottom[e, local]]
     assert abs(s_bot[0] / 2.874 - 1) < 0.03 and abs(-s_top[0] / 2.874 - 1) < 0.03
     # the expanded nodes lie t/2 below and above the mid-surface, in the frd order pinned here
-    np.testing.assert_allclose(frd.nodes[bottom[e, local]], model.nodes[centre] - [0, 0, 5],
-                               atol=1e-6)
-    np.testing.assert_allclose(frd.nodes[top[e, local]], model.nodes[centre] + [0, 0, 5],
-                               atol=1e-6)
+    np.testing.assert_allclose(
+        frd.nodes[bottom[e, local]], model.nodes[centre] - [0, 0, 5], atol=1e-6
+    )
+    np.testing.assert_allclose(frd.nodes[top[e, local]], model.nodes[centre] + [0, 0, 5], atol=1e-6)
     # RF = reaction + loads on the supported nodes (the trap): the check closes with that share
     on_supports = load[edge].sum(axis=0)
     reaction = dat.forces[0] - on_supports
     np.testing.assert_allclose(reaction, -load.sum(axis=0), rtol=1e-6, atol=1e-6)
-    assert abs(on_supports[2]) > 1e-3 * abs(load[:, 2].sum())        # the trap is real here
-    assert len(read_knots(run.deck)) == 0                             # a flat plate: no knots
+    assert abs(on_supports[2]) > 1e-3 * abs(load[:, 2].sum())  # the trap is real here
+    assert len(read_knots(run.deck)) == 0  # a flat plate: no knots
 
 
 # --------------------------------------------------------------------------------------------
@@ -155,19 +155,22 @@ def test_snow_is_the_horizontal_projection_and_wind_meets_the_windward_half():
     # a second vault upwind of the first shades it completely
     two, _ = _cylinder_patch()
     shifted = two.nodes + [0, -20000.0, 0]
-    both = two.replace(nodes=np.r_[two.nodes, shifted],
-                       quads=np.r_[two.quads, two.quads + len(two.nodes)],
-                       group=np.r_[two.group, two.group])
+    both = two.replace(
+        nodes=np.r_[two.nodes, shifted],
+        quads=np.r_[two.quads, two.quads + len(two.nodes)],
+        group=np.r_[two.group, two.group],
+    )
     exposed = wind_exposed(both, np.ones(both.n_elements, bool), (0, 1, 0))
-    assert exposed[len(two.quads):].any() and not exposed[: len(two.quads)].any()
+    assert exposed[len(two.quads) :].any() and not exposed[: len(two.quads)].any()
 
 
 def test_self_weight_edge_loads_and_kernels():
     model, _ = _cylinder_patch()
     weight = gravity_forces(model)
     area = 4000.0 * np.pi * 3000.0
-    np.testing.assert_allclose(weight.sum(axis=0), [0, 0, -7.85e-6 * 3 * area * 9.81],
-                               rtol=1e-4)             # quadratic elements over 22.5 deg
+    np.testing.assert_allclose(
+        weight.sum(axis=0), [0, 0, -7.85e-6 * 3 * area * 9.81], rtol=1e-4
+    )  # quadratic elements over 22.5 deg
     np.testing.assert_allclose(model.element_areas().sum(), area, rtol=1e-4)
     chain = np.arange(5)
     nodes = np.c_[np.linspace(0, 400, 5), np.zeros(5), np.zeros(5)]
@@ -186,8 +189,9 @@ def test_self_weight_edge_loads_and_kernels():
     assert len(combos) == 18 and "1.2G+1.5S-1.5W2" in names and "G+S+W1" in names
     assert combos[0].factors.tolist() == [1.2, 1.5, 0.0, 0.0]
     # a merged rib (last element) belongs to both its panels
-    panels, share = mode_extent(np.array([1.0, 0.2, 0.7, 0.55]),
-                                np.array([[0, -1], [1, -1], [2, -1], [3, 1]]), 4)
+    panels, share = mode_extent(
+        np.array([1.0, 0.2, 0.7, 0.55]), np.array([[0, -1], [1, -1], [2, -1], [3, 1]]), 4
+    )
     assert panels.tolist() == [0, 2, 1, 3] and share.tolist() == [1.0, 0.7, 0.55, 0.55]
     nodes = np.array([[0, 0, 0], [8000, 0, 0], [4000, 0, 4000.0]])
     assert span_of(nodes, np.array([0, 1])) == pytest.approx(8000.0)
@@ -231,16 +235,28 @@ def test_sandwich_mesh_shares_nodes_and_keeps_the_part_mass(cylinder_model):
     # within the issue's 0.5 % (measured 0.16 %: rib ends and bolt holes against the shells)
     assert abs((fe_mass + stiffeners) / model.mass - 1) < 5e-3
     plain = float((shell.material.density * shell.thickness * shell.element_areas()).sum())
-    assert abs(plain / model.mass - 1) > 5e-3                   # the correction matters
+    assert abs(plain / model.mass - 1) > 5e-3  # the correction matters
 
 
 def test_stiffener_masses_and_holes_reach_the_shell_model(cylinder_model):
     job, model = cylinder_model
     top = next(p for p in model.parts if p.id == "P001-TOP")
     holed = replace(top, holes=(Hole((0.0, 0.0), 40.0, "access"),) * 10)
-    stiffeners = tuple(Part(id=f"{pid}-STF-{c}", kind="stiffener", panel_id=pid, material="S235",
-                            thickness=8.0, volume=1e5, area=1.25e4, mass=0.785, brep=b"")
-                       for pid in model.developed.panel_ids for c in range(4))
+    stiffeners = tuple(
+        Part(
+            id=f"{pid}-STF-{c}",
+            kind="stiffener",
+            panel_id=pid,
+            material="S235",
+            thickness=8.0,
+            volume=1e5,
+            area=1.25e4,
+            mass=0.785,
+            brep=b"",
+        )
+        for pid in model.developed.panel_ids
+        for c in range(4)
+    )
     base = tuple(p for p in model.parts if p.kind != "stiffener")
     parts = tuple(holed if p.id == "P001-TOP" else p for p in base) + stiffeners
     plain = sandwich_model(model.developed, sandwich_settings(job, 2), base)
@@ -248,28 +264,33 @@ def test_stiffener_masses_and_holes_reach_the_shell_model(cylinder_model):
     assert shell.lumped_mass.sum() == pytest.approx(16 * 0.785)
     # lumped on the corner lines: the corner nodes of the panel sheets and their rib mid node
     loaded = shell.nodes[np.nonzero(shell.lumped_mass)[0]]
-    corners = model.developed.layout.vertices                      # 9, on the cylinder
+    corners = model.developed.layout.vertices  # 9, on the cylinder
     radial = corners * [0, 1, 1] / 4000.0
     rel = loaded[:, None] - corners[None]
-    off_line = np.linalg.norm(rel - np.einsum("pvk,vk->pv", rel, radial)[..., None] * radial,
-                              axis=-1).min(axis=1)
-    assert len(loaded) == 9 * 3 and np.all(off_line < 1e-6)        # 3 nodes per corner line
-    hole_mass = 10 * np.pi * 20.0 ** 2 * top.thickness * job.material.density
+    off_line = np.linalg.norm(
+        rel - np.einsum("pvk,vk->pv", rel, radial)[..., None] * radial, axis=-1
+    ).min(axis=1)
+    assert len(loaded) == 9 * 3 and np.all(off_line < 1e-6)  # 3 nodes per corner line
+    hole_mass = 10 * np.pi * 20.0**2 * top.thickness * job.material.density
     top_group = [g.name for g in shell.groups].index("TOP")
-    mass = lambda s: float((s.density * s.thickness * s.element_areas())[s.group == top_group]
-                           .sum())
+    mass = lambda s: float(
+        (s.density * s.thickness * s.element_areas())[s.group == top_group].sum()
+    )
     assert mass(plain) - mass(shell) == pytest.approx(hole_mass, rel=1e-9)
     weight = gravity_forces(shell).sum(axis=0)[2]
     assert -weight / 9.81 == pytest.approx(
-        float((shell.density * shell.thickness * shell.element_areas()).sum()) + 16 * 0.785)
+        float((shell.density * shell.thickness * shell.element_areas()).sum()) + 16 * 0.785
+    )
 
 
 @pytest.fixture(scope="module")
 def vault_structure(tmp_path_factory):
     job = fp.Job.from_toml(DEMO / "barrel-vault.toml")
     # wind across the vault (the example's blows along its axis and meets only the rims)
-    job = job.replace(structure={"element_size": "1.3 m"},
-                      loads={"wind_direction": [0.0, 1.0], "wind_opposite": True})
+    job = job.replace(
+        structure={"element_size": "1.3 m"},
+        loads={"wind_direction": [0.0, 1.0], "wind_opposite": True},
+    )
     result = fp.run(job, until="build", write=False, jobs=2)
     folder = tmp_path_factory.mktemp("vault-structure")
     return result, analyse(result.model, job, folder=folder), folder
@@ -286,12 +307,16 @@ def test_barrel_vault_example_reactions_equal_loads_and_mass_equals_parts(vault_
         assert case["ok"] and case["error"] < 1e-3, (name, case)
     g = s["load_cases"]["G"]
     assert -g["applied_N"][2] == pytest.approx(result.model.mass * 9.81, rel=0.005)
-    snow = s["load_cases"]["S"]                      # 0.56 kN/m2 on 12 m x 8 m of plan
+    snow = s["load_cases"]["S"]  # 0.56 kN/m2 on 12 m x 8 m of plan
     assert -snow["applied_N"][2] == pytest.approx(0.56e-3 * 12000 * 8000, rel=1e-3)
     # wind across the vault, both ways: on the windward quarter circles, projected: 4 m x 12 m
     for name, sign in (("W1", 1), ("W2", -1)):
-        np.testing.assert_allclose(s["load_cases"][name]["applied_N"],
-                                   [0, sign * 0.8e-3 * 4000 * 12000, 0], rtol=1e-3, atol=1)
+        np.testing.assert_allclose(
+            s["load_cases"][name]["applied_N"],
+            [0, sign * 0.8e-3 * 4000 * 12000, 0],
+            rtol=1e-3,
+            atol=1,
+        )
     assert "1.2G+1.5S-1.5W2" in s["combinations"]["ULS"] and "G+W1" in s["combinations"]["SLS"]
     # the vault stands on its two springing lines; its span is its width
     assert s["deflection"]["span_mm"] == pytest.approx(8000, rel=0.05)
@@ -334,9 +359,14 @@ def test_cli_export_without_ccx_completes_unless_required(tmp_path, monkeypatch)
 
     step = write_barrel_vault_step(tmp_path / "vault.step", radius=2000.0, length=1200.0)
     job = tmp_path / "job.toml"
-    job.write_text(f'[input]\npath = "{step.name}"\n[panelize]\nmethod = "grid"\ngrid_u = 2\n'
-                   f'grid_v = 1\n[develop]\nmethod = "project"\n[output]\nstep = false\n'
-                   f'glb = false\n')
+    job.write_text(
+        f'[input]\npath = "{step.name}"\n[panelize]\nmethod = "grid"\ngrid_u = 2\n'
+        f'grid_v = 1\n[develop]\nmethod = "project"\n[output]\nstep = false\n'
+        f"glb = false\n"
+        # the 3139 mm sheets need a longer plate than the default 3000 mm: without
+        # it they are left out of the nests, an error (exit 3)
+        f'[cutting]\nplate_length = "4000 mm"\n'
+    )
     monkeypatch.setenv("FABPANEL_CCX", str(tmp_path / "no-ccx-here"))
     done = CliRunner().invoke(main, ["export", str(job), "--out", str(tmp_path / "a")])
     assert done.exit_code == 0, done.output
@@ -344,8 +374,9 @@ def test_cli_export_without_ccx_completes_unless_required(tmp_path, monkeypatch)
     assert summary["structure"]["analysed"] is False
     assert "calculix-ccx" in summary["structure"]["reason"]
     assert (tmp_path / "a" / "cut" / "nests").is_dir()
-    refused = CliRunner().invoke(main, ["export", str(job), "--out", str(tmp_path / "b"),
-                                        "--require-fem"])
+    refused = CliRunner().invoke(
+        main, ["export", str(job), "--out", str(tmp_path / "b"), "--require-fem"]
+    )
     assert refused.exit_code == 2
     assert "apt-get install calculix-ccx" in refused.output
     assert not (tmp_path / "b").exists()

@@ -94,15 +94,17 @@ def test_obj_cylinder_patch_scaled_to_mm(tmp_path):
     surface = load_surface(cylinder_patch_obj(tmp_path / "vault.obj"), "m")
     assert surface.format == "obj" and surface.units == "m" and surface.brep is None
     assert len(surface.faces) == 2 * 30 * 40
-    np.testing.assert_allclose(np.linalg.norm(surface.vertices[:, 1:], axis=1), 2000.0,
-                               rtol=1e-8)  # the OBJ holds 9 digits
-    np.testing.assert_allclose(surface.bounds[:, 0], [0.0, 3000.0], atol=1e-6)
+    world = surface.vertices + surface.origin  # the surface is read into its local frame
+    np.testing.assert_allclose(
+        np.linalg.norm(world[:, 1:], axis=1), 2000.0, rtol=1e-8
+    )  # the OBJ holds 9 digits
+    np.testing.assert_allclose(surface.bounds[:, 0] + surface.origin[0], [0.0, 3000.0], atol=1e-6)
     analytic = RADIUS_M * ARC * LENGTH_M * 1e6
     assert abs(surface.area - analytic) / analytic < 0.005
     assert len(surface.boundary_loops) == 1
     # loaded with inward quads: the loader turns the vault to face up
     query = SurfaceQuery(surface)
-    _, normals, _ = query.closest(np.array([[1500.0, 0.0, 2500.0]]))
+    _, normals, _ = query.closest(np.array([[1500.0, 0.0, 2500.0]]) - surface.origin)
     assert normals[0, 2] > 0.99
 
 
@@ -113,8 +115,8 @@ def test_mesh_query_smooth_normals_and_distances(tmp_path):
     t = rng.uniform(np.pi / 2 - 0.6, np.pi / 2 + 0.6, 200)
     r = rng.uniform(1500.0, 2500.0, 200)
     x = rng.uniform(100.0, 2900.0, 200)
-    points = np.stack([x, r * np.cos(t), r * np.sin(t)], axis=1)
-    foot, normals, dist = query.closest(points)
+    points = np.stack([x, r * np.cos(t), r * np.sin(t)], axis=1) - surface.origin
+    _foot, normals, dist = query.closest(points)
     # chord error of 40 segments on a quarter arc of 2 m: 2000 (1 - cos(pi/160)) = 0.4 mm
     np.testing.assert_allclose(dist, np.abs(r - 2000.0), atol=0.5)
     radial = np.stack([np.zeros_like(t), np.cos(t), np.sin(t)], axis=1)
@@ -123,9 +125,14 @@ def test_mesh_query_smooth_normals_and_distances(tmp_path):
     import trimesh
 
     tri = surface.vertices[surface.faces]
-    brute = np.array([np.linalg.norm(
-        trimesh.triangles.closest_point(tri, np.repeat(p[None], len(tri), 0)) - p,
-        axis=1).min() for p in points[:20]])
+    brute = np.array(
+        [
+            np.linalg.norm(
+                trimesh.triangles.closest_point(tri, np.repeat(p[None], len(tri), 0)) - p, axis=1
+            ).min()
+            for p in points[:20]
+        ]
+    )
     np.testing.assert_allclose(dist[:20], brute, atol=1e-9)
 
 
@@ -148,8 +155,14 @@ def test_describe_reports_non_manifold_edges():
     # closed tetrahedron plus a fin on edge (0, 1): that edge is used three times
     vertices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]], dtype=float)
     faces = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2], [0, 1, 4]])
-    surface = Surface(vertices=vertices, faces=faces, boundary_loops=(), source=Path("fin.obj"),
-                      format="obj", units="mm")
+    surface = Surface(
+        vertices=vertices,
+        faces=faces,
+        boundary_loops=(),
+        source=Path("fin.obj"),
+        format="obj",
+        units="mm",
+    )
     info = describe_surface(surface)
     assert info["manifold"] is False and info["watertight"] is False
     with pytest.raises(InputError, match="vertex"):
@@ -201,29 +214,33 @@ def test_step_cylinder_exact_queries(step_cylinder):
     t = rng.uniform(U0 + 0.05, U1 - 0.05, n)
     r = rng.uniform(0.5 * R_MM, 1.5 * R_MM, n)
     x = rng.uniform(10.0, L_MM - 10.0, n)
+    origin = surface.origin
     points = np.stack([x, r * np.cos(t), r * np.sin(t)], axis=1)
-    foot, normals, dist = query.closest(points)
+    foot, normals, dist = query.closest(points - origin)
+    foot = foot + origin
     np.testing.assert_allclose(np.linalg.norm(foot[:, 1:], axis=1), R_MM, rtol=1e-9)
     np.testing.assert_allclose(dist, np.abs(r - R_MM), rtol=1e-6, atol=1e-6 * R_MM)
     radial = np.stack([np.zeros(n), np.cos(t), np.sin(t)], axis=1)
     np.testing.assert_allclose(normals, radial, atol=1e-9)  # outward = up for the vault
     # a point beyond the end of the vault projects onto its end edge
     far = np.array([[L_MM + 500.0, 0.0, R_MM + 100.0]])
-    foot, _, dist = query.closest(far)
-    np.testing.assert_allclose(foot[0], [L_MM, 0.0, R_MM], atol=1e-6)
+    foot, _, dist = query.closest(far - origin)
+    np.testing.assert_allclose(foot[0] + origin, [L_MM, 0.0, R_MM], atol=1e-6)
     assert dist[0] == pytest.approx(np.hypot(500.0, 100.0), rel=1e-9)
 
 
 def test_step_cylinder_parameters(step_cylinder):
-    query = SurfaceQuery(load_surface(step_cylinder, "m"))  # units ignored for B-rep
+    surface = load_surface(step_cylinder, "m")  # units ignored for B-rep
+    query = SurfaceQuery(surface)
     umin, umax, vmin, vmax = query.uv_bounds()
     np.testing.assert_allclose([umin, umax, vmin, vmax], [U0, U1, 0.0, L_MM], atol=1e-9)
     u = np.linspace(umin, umax, 7)
     v = np.linspace(vmin, vmax, 7)
     points, normals = query.evaluate_uv(u, v)
-    np.testing.assert_allclose(np.linalg.norm(points[:, 1:], axis=1), R_MM, rtol=1e-12)
-    np.testing.assert_allclose(points[:, 0], v, atol=1e-9)
-    np.testing.assert_allclose(normals[:, 1:], points[:, 1:] / R_MM, atol=1e-12)
+    world = points + surface.origin  # parameters survive the move into the local frame
+    np.testing.assert_allclose(np.linalg.norm(world[:, 1:], axis=1), R_MM, rtol=1e-12)
+    np.testing.assert_allclose(world[:, 0], v, atol=1e-9)
+    np.testing.assert_allclose(normals[:, 1:], world[:, 1:] / R_MM, atol=1e-12)
     pu, pv = query.project_uv(points + 10.0 * normals)
     np.testing.assert_allclose(pu, u, atol=1e-9)
     np.testing.assert_allclose(pv, v, atol=1e-6)
@@ -232,8 +249,11 @@ def test_step_cylinder_parameters(step_cylinder):
 def test_single_face_methods_need_single_face_brep(tmp_path):
     query = SurfaceQuery(load_surface(plane_with_holes_obj(tmp_path / "plate.obj"), "mm"))
     assert query.face_count == 0
-    for call in (query.uv_bounds, lambda: query.evaluate_uv([0.0], [0.0]),
-                 lambda: query.project_uv([[0.0, 0.0, 0.0]])):
+    for call in (
+        query.uv_bounds,
+        lambda: query.evaluate_uv([0.0], [0.0]),
+        lambda: query.project_uv([[0.0, 0.0, 0.0]]),
+    ):
         with pytest.raises(GeometryError, match="single face"):
             call()
 
@@ -252,7 +272,34 @@ def test_step_in_metres_is_read_in_mm(tmp_path):
     assert "SI_UNIT($,.METRE.)" in path.read_text()
     surface = load_surface(path)
     assert surface.units == "m"
-    np.testing.assert_allclose(surface.bounds[:, 0], [0.0, L_MM], atol=1e-6)
+    np.testing.assert_allclose(surface.bounds[:, 0] + surface.origin[0], [0.0, L_MM], atol=1e-6)
+
+
+@pytest.mark.parametrize("offset_m", [1e3, 1e6])
+def test_a_surface_far_from_the_origin_reads_into_the_same_local_frame(tmp_path, offset_m):
+    """Coordinates are recentred on load: a model in site coordinates gives the same local
+    geometry (and so the same results) as the same model at the origin."""
+    near = load_surface(cylinder_patch_obj(tmp_path / "near.obj"), "m")
+    text = (tmp_path / "near.obj").read_text().splitlines()
+    moved = [
+        " ".join(["v"] + [f"{float(c) + offset_m:.12f}" for c in line.split()[1:]])
+        if line.startswith("v ")
+        else line
+        for line in text
+    ]
+    (tmp_path / "far.obj").write_text("\n".join(moved) + "\n")
+    far = load_surface(tmp_path / "far.obj", "m")
+    np.testing.assert_allclose(far.origin - near.origin, offset_m * 1000.0, atol=1.0)
+    np.testing.assert_allclose(far.vertices, near.vertices, atol=1.0 + 1e-6)
+    # the origin is rounded to whole mm: the local frames agree to the rounding of the shift
+    np.testing.assert_allclose(
+        far.vertices - far.vertices[0], near.vertices - near.vertices[0], atol=1e-5 * offset_m / 1e3
+    )
+    np.testing.assert_allclose(
+        far.to_dict()["bounds_mm"],
+        np.array(near.to_dict()["bounds_mm"]) + offset_m * 1000.0,
+        atol=1e-3,
+    )
 
 
 def test_multi_face_brep_solid(tmp_path):
@@ -268,13 +315,14 @@ def test_multi_face_brep_solid(tmp_path):
     assert info["closed"] and info["watertight"] and info["exact_brep"]
     query = SurfaceQuery(surface)
     assert query.face_count == 3
-    points = np.array([[0.0, 0.0, 1000.0], [900.0, 0.0, 400.0], [0.0, 0.0, -50.0],
-                       [100.0, 50.0, 700.0]])
+    points = np.array(
+        [[0.0, 0.0, 1000.0], [900.0, 0.0, 400.0], [0.0, 0.0, -50.0], [100.0, 50.0, 700.0]]
+    )
     foot, normals, dist = query.closest(points)
-    np.testing.assert_allclose(foot, [[0, 0, 800], [500, 0, 400], [0, 0, 0], [100, 50, 800]],
-                               atol=1e-7)
-    np.testing.assert_allclose(normals, [[0, 0, 1], [1, 0, 0], [0, 0, -1], [0, 0, 1]],
-                               atol=1e-9)
+    np.testing.assert_allclose(
+        foot, [[0, 0, 800], [500, 0, 400], [0, 0, 0], [100, 50, 800]], atol=1e-7
+    )
+    np.testing.assert_allclose(normals, [[0, 0, 1], [1, 0, 0], [0, 0, -1], [0, 0, 1]], atol=1e-9)
     np.testing.assert_allclose(dist, [200, 400, 50, 100], atol=1e-7)
     with pytest.raises(GeometryError):
         query.uv_bounds()

@@ -8,9 +8,10 @@ from fabpanel import InputError
 from fabpanel.units import as_written, format_like, length_option, parse_quantity
 
 
-@pytest.mark.parametrize("text, expected", [
-    ("1e308 mm", 1e308), ("0.5e3 mm", 500.0), ("1.0 m", 1000.0), (".5 cm", 5.0),
-    ("10m", 10000.0)])
+@pytest.mark.parametrize(
+    "text, expected",
+    [("1e308 mm", 1e308), ("0.5e3 mm", 500.0), ("1.0 m", 1000.0), (".5 cm", 5.0), ("10m", 10000.0)],
+)
 def test_numbers_and_units_are_split_right(text, expected):
     assert parse_quantity(text, "length") == pytest.approx(expected)
     assert parse_quantity("0.56 kN/m²", "pressure") == pytest.approx(0.56e-3)
@@ -25,9 +26,11 @@ def test_a_quantity_must_be_finite_after_the_scaling(text):
     if "km" in text:
         assert 'unit "km"' in message
     else:
-        assert message == (f'[panelize] panel_size: "{text}" is too large: not a finite number '
-                           f"in {'MPa' if dimension == 'stress' else 'mm'}; write a realistic "
-                           f"{dimension}")
+        assert message == (
+            f'[panelize] panel_size: "{text}" is too large: not a finite number '
+            f"in {'MPa' if dimension == 'stress' else 'mm'}; write a realistic "
+            f"{dimension}"
+        )
 
 
 @pytest.mark.parametrize("value", ["1.0", "1.2", " 1200 ", 1.2, 1200])
@@ -39,9 +42,15 @@ def test_a_bare_number_is_a_number_without_unit(value):
     assert f'"{written} mm" or "{written} m"' in str(caught.value)
 
 
-@pytest.mark.parametrize("text, units, quantity", [
-    ("1.0", "m", "1.0 m"), ("1.2", "m", "1.2 m"), ("1200", "mm", "1200 mm"),
-    (" 120 ", "cm", "120 cm")])
+@pytest.mark.parametrize(
+    "text, units, quantity",
+    [
+        ("1.0", "m", "1.0 m"),
+        ("1.2", "m", "1.2 m"),
+        ("1200", "mm", "1200 mm"),
+        (" 120 ", "cm", "120 cm"),
+    ],
+)
 def test_a_bare_length_option_is_read_in_the_input_units(text, units, quantity):
     got, note = length_option(text, units, "--panel-size")
     assert got == quantity
@@ -60,9 +69,15 @@ def test_a_bare_length_option_without_input_units_asks_for_a_unit():
         length_option("1.2", None)
 
 
-@pytest.mark.parametrize("text, fragment", [
-    ("1.2 ft", 'unit "ft" in "1.2 ft" is not a length unit'), ("big", 'cannot read "big"'),
-    ("nan", 'cannot read "nan"'), ("1e308 m", "too large")])
+@pytest.mark.parametrize(
+    "text, fragment",
+    [
+        ("1.2 ft", 'unit "ft" in "1.2 ft" is not a length unit'),
+        ("big", 'cannot read "big"'),
+        ("nan", 'cannot read "nan"'),
+        ("1e308 m", "too large"),
+    ],
+)
 def test_a_wrong_length_option_names_the_option(text, fragment):
     with pytest.raises(InputError) as caught:
         length_option(text, "m", "--panel-size")

@@ -22,8 +22,9 @@ def test_gradient_matches_finite_differences():
     points[movable] += np.random.default_rng(0).normal(0.0, 0.4, (movable.sum(), 2))
     args = (points, movable, _corners(quads), 1.3, 0.1)
     x = points[movable].ravel()
-    error = check_grad(lambda v: _energy_and_gradient(v, *args)[0],
-                       lambda v: _energy_and_gradient(v, *args)[1], x)
+    error = check_grad(
+        lambda v: _energy_and_gradient(v, *args)[0], lambda v: _energy_and_gradient(v, *args)[1], x
+    )
     assert error < 1e-4 * np.linalg.norm(_energy_and_gradient(x, *args)[1])
 
 
@@ -37,8 +38,8 @@ def test_badly_folded_grid_becomes_the_regular_grid():
     out, info = untangle(tangled, quads, movable)
     assert info["folded_before"] > 20 and info["folded_after"] == 0
     assert (corner_determinants(out, quads) > 0).all()
-    np.testing.assert_array_equal(out[~movable], points[~movable])       # boundary kept
-    np.testing.assert_allclose(out, points, atol=1e-3)                  # the unique optimum
+    np.testing.assert_array_equal(out[~movable], points[~movable])  # boundary kept
+    np.testing.assert_allclose(out, points, atol=1e-3)  # the unique optimum
 
 
 def test_non_convex_domain_is_untangled():
@@ -53,7 +54,7 @@ def test_non_convex_domain_is_untangled():
     boundary[edges[counts == 1].ravel()] = True
     movable = np.isin(np.arange(len(points)), used) & ~boundary
     tangled = points.copy()
-    tangled[movable] = [4.5, 4.5]                        # outside the domain, in the notch
+    tangled[movable] = [4.5, 4.5]  # outside the domain, in the notch
     out, info = untangle(tangled, quads, movable)
     assert info["folded_after"] == 0
     assert (corner_determinants(out, quads) > 0).all()

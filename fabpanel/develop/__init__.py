@@ -12,18 +12,22 @@ from ..job import Job
 from ..surface import SurfaceQuery
 
 
-def develop(layout: PanelLayout, surface: Surface, job: Job,
-            query: SurfaceQuery | None = None) -> DevelopedPanels:
+def develop(
+    layout: PanelLayout, surface: Surface, job: Job, query: SurfaceQuery | None = None
+) -> DevelopedPanels:
     """Developed panels of ``layout`` by the job's ``[develop] method``."""
     query = query or SurfaceQuery(surface)
     method = job.develop.method
     if method == "global":
         from .optimise import develop_global
+
         return develop_global(layout, surface, job, query)
     if method == "loft":
         from .loft import develop_loft
+
         return develop_loft(layout, surface, job, query)
     from .project import develop as develop_project
+
     return develop_project(layout, surface, job, query)
 
 

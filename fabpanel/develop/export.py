@@ -20,9 +20,13 @@ def write_developed_obj(developed: DevelopedPanels, path: str | Path) -> Path:
     m, k = developed.samples.shape[:2]
     ids = np.arange(k * k).reshape(k, k)
     cells = np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], -1).reshape(-1, 4)
-    lines = ["# fabpanel developed panels: k x k samples per panel, one group per panel",
-             "# units: mm", f"# method: {developed.method}, panels: {m}, samples per side: {k}"]
-    lines += [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in developed.samples.reshape(-1, 3).tolist()]
+    lines = [
+        "# fabpanel developed panels: k x k samples per panel, one group per panel",
+        "# units: mm",
+        f"# method: {developed.method}, panels: {m}, samples per side: {k}",
+    ]
+    world = developed.samples.reshape(-1, 3) + developed.layout.origin  # the design's frame
+    lines += [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in world.tolist()]
     for panel, pid in enumerate(developed.panel_ids):
         lines.append(f"g {pid}")
         offset = panel * k * k + 1

@@ -25,15 +25,18 @@ def ruled_grids(samples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     along j) and between sides 3 and 1 (rulings along i). Returns two (m, k, k, 3) arrays."""
     k = samples.shape[1]
     t = np.linspace(0.0, 1.0, k)
-    along_j = ((1 - t)[None, None, :, None] * samples[:, :, :1]
-               + t[None, None, :, None] * samples[:, :, -1:])
-    along_i = ((1 - t)[None, :, None, None] * samples[:, :1, :]
-               + t[None, :, None, None] * samples[:, -1:, :])
+    along_j = (1 - t)[None, None, :, None] * samples[:, :, :1] + t[None, None, :, None] * samples[
+        :, :, -1:
+    ]
+    along_i = (1 - t)[None, :, None, None] * samples[:, :1, :] + t[None, :, None, None] * samples[
+        :, -1:, :
+    ]
     return along_j, along_i
 
 
-def develop_loft(layout: PanelLayout, surface: Surface, job: Job,
-                 query: SurfaceQuery) -> DevelopedPanels:
+def develop_loft(
+    layout: PanelLayout, surface: Surface, job: Job, query: SurfaceQuery
+) -> DevelopedPanels:
     """Ruled panels between the closer pair of opposite sides; see the module docstring."""
     from .optimise import grid_normals
     from .project import developed_panels, sample_panels
@@ -49,13 +52,17 @@ def develop_loft(layout: PanelLayout, surface: Surface, job: Job,
     samples = np.where(use_i[:, None, None, None], candidates[1], candidates[0])
     normals = grid_normals(samples, design_normals)
     gaps, kinks = side_gaps_and_kinks(layout, samples, normals)
-    extra = {"loft_directions": {"sides 0-2": int((~use_i).sum()), "sides 3-1": int(use_i.sum())},
-             "gap_mm_max": round(float(gaps.max()), 4),
-             "gap_mm_mean_shared": round(float(gaps[layout.side_neighbours >= 0].mean()), 4)
-             if (layout.side_neighbours >= 0).any() else 0.0,
-             "kink_deg": {"max": round(float(kinks.max()), 4)}}
-    result = developed_panels(layout, samples, normals, query, job, "loft", extra,
-                              design_samples=design)
+    extra = {
+        "loft_directions": {"sides 0-2": int((~use_i).sum()), "sides 3-1": int(use_i.sum())},
+        "gap_mm_max": round(float(gaps.max()), 4),
+        "gap_mm_mean_shared": round(float(gaps[layout.side_neighbours >= 0].mean()), 4)
+        if (layout.side_neighbours >= 0).any()
+        else 0.0,
+        "kink_deg": {"max": round(float(kinks.max()), 4)},
+    }
+    result = developed_panels(
+        layout, samples, normals, query, job, "loft", extra, design_samples=design
+    )
     for i, pid in enumerate(layout.panel_ids):
         result.metrics["per_panel"][pid]["gap_mm"] = round(float(gaps[i].max()), 4)
     return result

@@ -23,8 +23,11 @@ from ..tolerances import TOLERANCES
 
 
 def _stats(values: np.ndarray, digits: int = 4) -> dict:
-    return {"min": round(float(values.min()), digits), "mean": round(float(values.mean()), digits),
-            "max": round(float(values.max()), digits)}
+    return {
+        "min": round(float(values.min()), digits),
+        "mean": round(float(values.mean()), digits),
+        "max": round(float(values.max()), digits),
+    }
 
 
 def gauss_image_areas(samples: np.ndarray) -> np.ndarray:
@@ -57,11 +60,14 @@ def conical(normals: np.ndarray) -> np.ndarray:
     mean = flat.mean(axis=1)
     mean /= np.linalg.norm(mean, axis=1, keepdims=True)
     spread = np.arccos(np.clip(np.einsum("mki,mi->mk", flat, mean), -1, 1)).max(axis=1)
-    great = np.linalg.svd(flat, full_matrices=False)[2][:, -1]          # plane through 0
+    great = np.linalg.svd(flat, full_matrices=False)[2][:, -1]  # plane through 0
     great_residual = np.abs(np.einsum("mki,mi->mk", flat, great)).max(axis=1)
-    return ((np.abs(offset) >= CONE_OFFSET) & (residual <= CONE_FIT * np.sin(spread))
-            & (great_residual > np.maximum(CONE_DISTINCT * residual, GREAT_CIRCLE_FIT))
-            & (np.degrees(spread) >= CONE_SPREAD_DEG))
+    return (
+        (np.abs(offset) >= CONE_OFFSET)
+        & (residual <= CONE_FIT * np.sin(spread))
+        & (great_residual > np.maximum(CONE_DISTINCT * residual, GREAT_CIRCLE_FIT))
+        & (np.degrees(spread) >= CONE_SPREAD_DEG)
+    )
 
 
 def advised_panel_size(samples: np.ndarray, strain: np.ndarray, tolerance: float) -> np.ndarray:
@@ -77,10 +83,17 @@ def advised_panel_size(samples: np.ndarray, strain: np.ndarray, tolerance: float
     return np.floor(ADVICE_MARGIN * size * ratio / ADVICE_ROUNDING) * ADVICE_ROUNDING
 
 
-def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normals: np.ndarray,
-                         edge_residuals: np.ndarray, normal_angles: np.ndarray,
-                         bevel_twist: np.ndarray, boundary_sides: np.ndarray,
-                         query: SurfaceQuery, job: Job):
+def classify_and_measure(
+    panel_ids: tuple[str, ...],
+    samples: np.ndarray,
+    normals: np.ndarray,
+    edge_residuals: np.ndarray,
+    normal_angles: np.ndarray,
+    bevel_twist: np.ndarray,
+    boundary_sides: np.ndarray,
+    query: SurfaceQuery,
+    job: Job,
+):
     """Class, smallest bending radius, metrics, issues and sample deviations of every panel.
 
     samples, normals : (m, k, k, 3); edge_residuals : (m, 4) mm (side samples from their rib
@@ -94,15 +107,19 @@ def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normal
     strain = np.array([flatten_grid(grid)[1] for grid in samples])
     gauss_area = gauss_image_areas(samples)
     _, _, flatness = bestfit_planes(samples.reshape(m, -1, 3))
-    radius = np.minimum(circumradii(samples).reshape(m, -1).min(axis=1),
-                        circumradii(samples.transpose(0, 2, 1, 3)).reshape(m, -1).min(axis=1))
+    radius = np.minimum(
+        circumradii(samples).reshape(m, -1).min(axis=1),
+        circumradii(samples.transpose(0, 2, 1, 3)).reshape(m, -1).min(axis=1),
+    )
     centres = cell_centres(samples).reshape(-1, 3)
     _, _, centre_dist = query.closest(centres)
     _, _, sample_dist = query.closest(samples.reshape(-1, 3))
-    deviation = np.maximum(centre_dist.reshape(m, -1).max(axis=1),
-                           sample_dist.reshape(m, -1).max(axis=1))
-    mean_deviation = 0.5 * (centre_dist.reshape(m, -1).mean(axis=1)
-                            + sample_dist.reshape(m, -1).mean(axis=1))
+    deviation = np.maximum(
+        centre_dist.reshape(m, -1).max(axis=1), sample_dist.reshape(m, -1).max(axis=1)
+    )
+    mean_deviation = 0.5 * (
+        centre_dist.reshape(m, -1).mean(axis=1) + sample_dist.reshape(m, -1).mean(axis=1)
+    )
     span = np.linalg.norm(samples[:, -1, -1] - samples[:, 0, 0], axis=1)
     tolerance = job.develop.strain_tolerance
     cones = conical(normals)
@@ -118,12 +135,17 @@ def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normal
             classes.append("conical" if cones[i] else "single-curved")
         else:
             classes.append("not-developable")
-            issues.append(Issue("not-developable",
-                                f"panel {pid} unrolls with {strain[i]:.3%} strain, above the "
-                                f"{tolerance:.3%} tolerance: it spans {gauss_area[i]:.2e} sr of "
-                                f"the Gauss sphere (doubly curved); at a panel size of about "
-                                f"{advice[i]:.0f} mm it would unroll within tolerance", pid,
-                                "warning"))
+            issues.append(
+                Issue(
+                    "not-developable",
+                    f"panel {pid} unrolls with {strain[i]:.3%} strain, above the "
+                    f"{tolerance:.3%} tolerance: it spans {gauss_area[i]:.2e} sr of "
+                    f"the Gauss sphere (doubly curved); at a panel size of about "
+                    f"{advice[i]:.0f} mm it would unroll within tolerance",
+                    pid,
+                    "warning",
+                )
+            )
         worst = int(np.argmax(edge_residuals[i]))
         worst_side = float(edge_residuals[i, worst])
         if worst_side > TOLERANCES.rib_edge:
@@ -132,54 +154,75 @@ def classify_and_measure(panel_ids: tuple[str, ...], samples: np.ndarray, normal
             elif job.develop.method == "global":
                 remedy = "raise [develop] rib_planarity or max_iterations"
             else:
-                remedy = "use [develop] method = \"global\""
-            issues.append(Issue("rib-not-planar",
-                                f"panel {pid}: side {worst} leaves its rib plane by "
-                                f"{worst_side:.3f} mm (tolerance {TOLERANCES.rib_edge} mm); "
-                                f"{remedy}", pid, "warning"))
+                remedy = 'use [develop] method = "global"'
+            issues.append(
+                Issue(
+                    "rib-not-planar",
+                    f"panel {pid}: side {worst} leaves its rib plane by "
+                    f"{worst_side:.3f} mm (tolerance {TOLERANCES.rib_edge} mm); "
+                    f"{remedy}",
+                    pid,
+                    "warning",
+                )
+            )
     failing = strain > tolerance
     if failing.any():
-        issues.append(Issue("panel-size-advice",
-                            f"{int(failing.sum())} panels are too doubly curved to develop at "
-                            f"their size; --panel-size {advice[failing].min() / 1000:g}m would "
-                            f"bring the worst of them within the {tolerance:.3%} strain tolerance",
-                            "", "warning"))
-    forming = ["none" if c == "planar" else
-               ("press" if r < TOLERANCES.press_forming_radius else "roll")
-               for c, r in zip(classes, radius)]
+        issues.append(
+            Issue(
+                "panel-size-advice",
+                f"{int(failing.sum())} panels are too doubly curved to develop at "
+                f"their size; --panel-size {advice[failing].min() / 1000:g}m would "
+                f"bring the worst of them within the {tolerance:.3%} strain tolerance",
+                "",
+                "warning",
+            )
+        )
+    forming = [
+        "none" if c == "planar" else ("press" if r < TOLERANCES.press_forming_radius else "roll")
+        for c, r in zip(classes, radius)
+    ]
     per_panel = {
-        pid: {"class": classes[i], "unroll_strain": float(strain[i]),
-              "gauss_image_area": float(gauss_area[i]),
-              "bending_radius_mm": None if not np.isfinite(radius[i]) else round(float(radius[i]), 1),
-              "forming": forming[i],
-              "deviation_max_mm": round(float(deviation[i]), 4),
-              "deviation_mean_mm": round(float(mean_deviation[i]), 4),
-              "deviation_max_pct_span": round(float(100 * deviation[i] / span[i]), 5),
-              "deviation_mean_pct_span": round(float(100 * mean_deviation[i] / span[i]), 5),
-              "rib_plane_residual_mm": round(float(edge_residuals[i].max()), 5),
-              "rib_normal_angle_deg": round(float(normal_angles[i].max()), 4),
-              "rib_bevel_twist_deg": round(float(bevel_twist[i].max()), 4),
-              **({"advised_panel_size_mm": float(advice[i])} if failing[i] else {})}
-        for i, pid in enumerate(panel_ids)}
+        pid: {
+            "class": classes[i],
+            "unroll_strain": float(strain[i]),
+            "gauss_image_area": float(gauss_area[i]),
+            "bending_radius_mm": None if not np.isfinite(radius[i]) else round(float(radius[i]), 1),
+            "forming": forming[i],
+            "deviation_max_mm": round(float(deviation[i]), 4),
+            "deviation_mean_mm": round(float(mean_deviation[i]), 4),
+            "deviation_max_pct_span": round(float(100 * deviation[i] / span[i]), 5),
+            "deviation_mean_pct_span": round(float(100 * mean_deviation[i] / span[i]), 5),
+            "rib_plane_residual_mm": round(float(edge_residuals[i].max()), 5),
+            "rib_normal_angle_deg": round(float(normal_angles[i].max()), 4),
+            "rib_bevel_twist_deg": round(float(bevel_twist[i].max()), 4),
+            **({"advised_panel_size_mm": float(advice[i])} if failing[i] else {}),
+        }
+        for i, pid in enumerate(panel_ids)
+    }
     finite_radius = radius[np.isfinite(radius)]
     metrics = {
         "samples_per_side": int(k),
         "classes": {c: classes.count(c) for c in sorted(set(classes))},
         "unroll_strain": _stats(strain, 8),
         "gauss_image_area": _stats(gauss_area, 8),
-        "deviation_mm": {"max": round(float(deviation.max()), 4),
-                         "mean": round(float(mean_deviation.mean()), 4)},
+        "deviation_mm": {
+            "max": round(float(deviation.max()), 4),
+            "mean": round(float(mean_deviation.mean()), 4),
+        },
         "deviation_pct_span_max": round(float(100 * (deviation / span).max()), 5),
         "deviation_pct_span_mean": round(float(100 * (mean_deviation / span).mean()), 5),
         "rib_plane_residual_mm_max": round(float(edge_residuals.max()), 5),
-        "rib_plane_residual_mm_max_interior": round(float(edge_residuals[~boundary_sides].max(
-            initial=0.0)), 5),
-        "rib_plane_residual_mm_max_boundary": round(float(edge_residuals[boundary_sides].max(
-            initial=0.0)), 5),
+        "rib_plane_residual_mm_max_interior": round(
+            float(edge_residuals[~boundary_sides].max(initial=0.0)), 5
+        ),
+        "rib_plane_residual_mm_max_boundary": round(
+            float(edge_residuals[boundary_sides].max(initial=0.0)), 5
+        ),
         "rib_normal_angle_deg_max": round(float(normal_angles.max()), 4),
         "rib_bevel_twist_deg_max": round(float(bevel_twist.max()), 4),
-        "bending_radius_mm_min": (round(float(finite_radius.min()), 1)
-                                  if len(finite_radius) else None),
+        "bending_radius_mm_min": (
+            round(float(finite_radius.min()), 1) if len(finite_radius) else None
+        ),
         "panels_not_developable": int(failing.sum()),
         "per_panel": per_panel,
     }

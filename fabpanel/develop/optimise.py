@@ -118,15 +118,16 @@ def sample_mesh(layout: PanelLayout, samples: np.ndarray) -> SampleMesh:
     key = edges[:, 0] * nv + edges[:, 1]
     inner = k - 2
     ids = np.empty((m, k, k), dtype=np.int64)
-    ids[:, 1:-1, 1:-1] = (nv + len(edges) * inner
-                          + np.arange(m * inner * inner).reshape(m, inner, inner))
+    ids[:, 1:-1, 1:-1] = (
+        nv + len(edges) * inner + np.arange(m * inner * inner).reshape(m, inner, inner)
+    )
     side_edge = np.empty((m, 4), dtype=np.int64)
     edge_inner = nv + np.arange(len(edges) * inner).reshape(len(edges), inner)
     for side in range(4):
         a, b = quads[:, side], quads[:, (side + 1) % 4]
         edge = np.searchsorted(key, np.minimum(a, b) * nv + np.maximum(a, b))
         side_edge[:, side] = edge
-        along = edge_inner[edge]                                   # (m, inner), low -> high
+        along = edge_inner[edge]  # (m, inner), low -> high
         along = np.where((a < b)[:, None], along, along[:, ::-1])
         i, j = side_index(k, side)
         ids[:, i[1:-1], j[1:-1]] = along
@@ -148,8 +149,9 @@ class _System:
         self.residuals, self.rows, self.cols, self.vals = [], [], [], []
         self.count = 0
 
-    def add(self, residual: np.ndarray, terms: list[tuple[np.ndarray, np.ndarray]],
-            weight: float) -> None:
+    def add(
+        self, residual: np.ndarray, terms: list[tuple[np.ndarray, np.ndarray]], weight: float
+    ) -> None:
         """residual (r,); terms: (columns (r, c), values (r, c)) pairs of Jacobian entries."""
         r = len(residual)
         rows = self.count + np.arange(r)
@@ -162,8 +164,14 @@ class _System:
             self.vals.append(weight * values.ravel())
         self.count += r
 
-    def add_summed(self, residual: np.ndarray, rows: np.ndarray, columns: np.ndarray,
-                   values: np.ndarray, weight: float) -> None:
+    def add_summed(
+        self,
+        residual: np.ndarray,
+        rows: np.ndarray,
+        columns: np.ndarray,
+        values: np.ndarray,
+        weight: float,
+    ) -> None:
         """residual (r,) whose Jacobian entries come as (row in 0..r, column, value) triplets
         (repeated entries add up)."""
         self.residuals.append(weight * residual)
@@ -174,9 +182,10 @@ class _System:
 
     def matrices(self, size: int) -> tuple[np.ndarray, sp.csr_matrix]:
         residual = np.concatenate(self.residuals)
-        jacobian = sp.csr_matrix((np.concatenate(self.vals),
-                                  (np.concatenate(self.rows), np.concatenate(self.cols))),
-                                 shape=(self.count, size))
+        jacobian = sp.csr_matrix(
+            (np.concatenate(self.vals), (np.concatenate(self.rows), np.concatenate(self.cols))),
+            shape=(self.count, size),
+        )
         return residual, jacobian
 
 
@@ -207,20 +216,36 @@ def grid_normals(samples: np.ndarray, reference: np.ndarray) -> np.ndarray:
 class GlobalOptimiser:
     """Levenberg-Marquardt on all panels at once (see the module docstring)."""
 
-    def __init__(self, layout: PanelLayout, samples: np.ndarray, normals: np.ndarray,
-                 query: SurfaceQuery, *, closeness: float, fairness: float, rib: float,
-                 depth: float):
+    def __init__(
+        self,
+        layout: PanelLayout,
+        samples: np.ndarray,
+        normals: np.ndarray,
+        query: SurfaceQuery,
+        *,
+        closeness: float,
+        fairness: float,
+        rib: float,
+        depth: float,
+    ):
         self.layout = layout
         self.query = query
         self.mesh = sample_mesh(layout, samples)
         m, k = samples.shape[:2]
         self.m, self.k = m, k
-        edge_vectors = np.diff(np.concatenate([layout.vertices[layout.quads],
-                                               layout.vertices[layout.quads[:, :1]]], axis=1),
-                               axis=1)
+        edge_vectors = np.diff(
+            np.concatenate(
+                [layout.vertices[layout.quads], layout.vertices[layout.quads[:, :1]]], axis=1
+            ),
+            axis=1,
+        )
         self.scale = float(np.linalg.norm(edge_vectors, axis=2).mean())
-        self.weights = {"closeness": closeness, "fairness": fairness, "rib": rib,
-                        "defect": DEFECT_WEIGHT}
+        self.weights = {
+            "closeness": closeness,
+            "fairness": fairness,
+            "rib": rib,
+            "defect": DEFECT_WEIGHT,
+        }
         # both triangulations of the grid: the unroll strain measures both diagonals of every
         # cell, so the grid must be flat across either
         grid = np.arange(k * k).reshape(k, k)
@@ -228,7 +253,8 @@ class GlobalOptimiser:
         v11, v01 = grid[1:, 1:].ravel(), grid[:-1, 1:].ravel()
         self._triangulations = (
             np.concatenate([np.stack([v00, v10, v11], 1), np.stack([v00, v11, v01], 1)]),
-            np.concatenate([np.stack([v00, v10, v01], 1), np.stack([v10, v11, v01], 1)]))
+            np.concatenate([np.stack([v00, v10, v01], 1), np.stack([v10, v11, v01], 1)]),
+        )
         interior = np.full((k, k), -1, dtype=np.int64)
         interior[1:-1, 1:-1] = np.arange((k - 2) ** 2).reshape(k - 2, k - 2)
         self._interior_row = interior.ravel()
@@ -244,19 +270,21 @@ class GlobalOptimiser:
         self.off_s = self.off_c + n_edges
         self.size = self.off_s + 4 * m
         self.start_points = self.mesh.points / self.scale
-        self.start_normals = normals          # outward: orient the results like them
+        self.start_normals = normals  # outward: orient the results like them
         self.z = self._initial(normals)
 
     # -- unknowns ---------------------------------------------------------------------------
     def _initial(self, normals: np.ndarray) -> np.ndarray:
         m, k = self.m, self.k
         x = self.start_points
-        cells = normals[:, :-1, :-1] + normals[:, 1:, :-1] + normals[:, 1:, 1:] + normals[:, :-1, 1:]
+        cells = (
+            normals[:, :-1, :-1] + normals[:, 1:, :-1] + normals[:, 1:, 1:] + normals[:, :-1, 1:]
+        )
         n = (cells / np.linalg.norm(cells, axis=-1, keepdims=True)).reshape(m, -1, 3)
         # Gauss-image plane: total least squares of the normals (d = mean . h)
         h, d, _ = bestfit_planes(n)
         # rib planes through each side's samples and the samples moved along the normals
-        sides_x = x[self.mesh.edge_ids]                                   # (E, k, 3)
+        sides_x = x[self.mesh.edge_ids]  # (E, k, 3)
         first_panel = np.full(len(self.mesh.edge_ids), -1, dtype=np.int64)
         first_side = np.zeros(len(self.mesh.edge_ids), dtype=np.int64)
         for side in range(4):
@@ -271,21 +299,22 @@ class GlobalOptimiser:
             start = self.layout.quads[first_panel[chosen], side]
             end = self.layout.quads[first_panel[chosen], (side + 1) % 4]
             side_normals[chosen] = np.where((start < end)[:, None, None], own, own[:, ::-1])
-        cloud = np.concatenate([sides_x, sides_x - (self.depth / self.scale) * side_normals],
-                               axis=1)
+        cloud = np.concatenate(
+            [sides_x, sides_x - (self.depth / self.scale) * side_normals], axis=1
+        )
         g, c, _ = bestfit_planes(cloud)
         # bevel of every panel side against its rib plane: start from square ribs
         return np.concatenate([x.ravel(), n.ravel(), h.ravel(), d, g.ravel(), c, np.zeros(4 * m)])
 
     def unpack(self, z: np.ndarray):
         m, k = self.m, self.k
-        x = z[:self.off_n].reshape(-1, 3)
-        n = z[self.off_n:self.off_h].reshape(m, k - 1, k - 1, 3)
-        h = z[self.off_h:self.off_d].reshape(m, 3)
-        d = z[self.off_d:self.off_g]
-        g = z[self.off_g:self.off_c].reshape(-1, 3)
-        c = z[self.off_c:self.off_s]
-        s = z[self.off_s:].reshape(m, 4)
+        x = z[: self.off_n].reshape(-1, 3)
+        n = z[self.off_n : self.off_h].reshape(m, k - 1, k - 1, 3)
+        h = z[self.off_h : self.off_d].reshape(m, 3)
+        d = z[self.off_d : self.off_g]
+        g = z[self.off_g : self.off_c].reshape(-1, 3)
+        c = z[self.off_c : self.off_s]
+        s = z[self.off_s :].reshape(m, 4)
         return x, n, h, d, g, c, s
 
     # -- residuals ----------------------------------------------------------------------------
@@ -305,33 +334,48 @@ class GlobalOptimiser:
         c = k - 1
         ncol = (self.off_n + np.arange(3 * m * c * c)).reshape(m, c, c, 3)
         for start, end in ((ids[:, :-1, :-1], ids[:, 1:, 1:]), (ids[:, :-1, 1:], ids[:, 1:, :-1])):
-            diagonal = x[end] - x[start]                                  # (m, c, c, 3)
+            diagonal = x[end] - x[start]  # (m, c, c, 3)
             length = np.linalg.norm(diagonal, axis=-1, keepdims=True)
             residual = (n * diagonal).sum(-1, keepdims=True) / length
             # d/d diagonal of n . d / |d| = (n - r d/|d|) / |d|
             d_diag = (n - residual * diagonal / length) / length
-            system.add(residual.ravel(), [(ncol, diagonal / length), (xcol(end), d_diag),
-                                          (xcol(start), -d_diag)], NORMAL_WEIGHT)
+            system.add(
+                residual.ravel(),
+                [(ncol, diagonal / length), (xcol(end), d_diag), (xcol(start), -d_diag)],
+                NORMAL_WEIGHT,
+            )
         system.add(((n * n).sum(-1) - 1.0).ravel(), [(ncol, 2 * n)], NORMAL_WEIGHT)
         # developability: the cell normals of panel p on one plane n . h_p = d_p
         hcol = (self.off_h + np.arange(3 * m)).reshape(m, 3)
         h_b = np.broadcast_to(h[:, None, None, :], n.shape)
-        system.add(((n * h_b).sum(-1) - d[:, None, None]).ravel(),
-                   [(ncol, h_b), (np.broadcast_to(hcol[:, None, None, :], n.shape), n),
-                    (np.broadcast_to((self.off_d + np.arange(m))[:, None, None], (m, c, c)),
-                     -np.ones((m, c, c)))], 1.0)
+        system.add(
+            ((n * h_b).sum(-1) - d[:, None, None]).ravel(),
+            [
+                (ncol, h_b),
+                (np.broadcast_to(hcol[:, None, None, :], n.shape), n),
+                (
+                    np.broadcast_to((self.off_d + np.arange(m))[:, None, None], (m, c, c)),
+                    -np.ones((m, c, c)),
+                ),
+            ],
+            1.0,
+        )
         system.add((h * h).sum(-1) - 1.0, [(hcol, 2 * h)], NORMAL_WEIGHT)
         self._angle_defects(system, x)
         # rib planes: side samples in the plane, both panels' normals along the side in it
-        edge_ids = self.mesh.edge_ids                                     # (E, k)
+        edge_ids = self.mesh.edge_ids  # (E, k)
         gcol = (self.off_g + np.arange(g.size)).reshape(-1, 3)
         ccol = self.off_c + np.arange(len(offsets))
         g_b = np.broadcast_to(g[:, None, :], (len(g), k, 3))
-        system.add(((x[edge_ids] * g_b).sum(-1) - offsets[:, None]).ravel(),
-                   [(xcol(edge_ids), g_b), (np.broadcast_to(gcol[:, None, :], g_b.shape),
-                                            x[edge_ids]),
-                    (np.broadcast_to(ccol[:, None], edge_ids.shape), -np.ones(edge_ids.shape))],
-                   self.weights["rib"])
+        system.add(
+            ((x[edge_ids] * g_b).sum(-1) - offsets[:, None]).ravel(),
+            [
+                (xcol(edge_ids), g_b),
+                (np.broadcast_to(gcol[:, None, :], g_b.shape), x[edge_ids]),
+                (np.broadcast_to(ccol[:, None], edge_ids.shape), -np.ones(edge_ids.shape)),
+            ],
+            self.weights["rib"],
+        )
         # ... and the surface normals along the side at one constant angle to it,
         # g . (t_i x t_j) / |.| = s (the sine of the side's bevel, an unknown per panel side),
         # with the second-order tangents of the grid (the normals the sheets are built with).
@@ -346,7 +390,7 @@ class GlobalOptimiser:
         for side in range(4):
             i, j = (a[1:-1] for a in side_index(k, side))
             edge = self.mesh.side_edge[:, side]
-            ids_i = ids[:, index[i], j[:, None]]                           # (m, k, 3)
+            ids_i = ids[:, index[i], j[:, None]]  # (m, k, 3)
             ids_j = ids[:, i[:, None], index[j]]
             t_i = np.einsum("ks,mksc->mkc", weight[i], x[ids_i])
             t_j = np.einsum("ks,mksc->mkc", weight[j], x[ids_j])
@@ -361,8 +405,10 @@ class GlobalOptimiser:
             d_ti = np.cross(t_j, v)
             d_tj = np.cross(v, t_i)
             scol = np.broadcast_to((self.off_s + 4 * np.arange(m) + side)[:, None], sine.shape[:2])
-            terms = [(np.broadcast_to(gcol[edge][:, None, :], normal.shape), normal / size),
-                     (scol, -np.ones(scol.shape))]
+            terms = [
+                (np.broadcast_to(gcol[edge][:, None, :], normal.shape), normal / size),
+                (scol, -np.ones(scol.shape)),
+            ]
             for t in range(3):
                 terms.append((xcol(ids_i[..., t]), weight[i][None, :, t, None] * d_ti))
                 terms.append((xcol(ids_j[..., t]), weight[j][None, :, t, None] * d_tj))
@@ -370,26 +416,34 @@ class GlobalOptimiser:
         system.add((g * g).sum(-1) - 1.0, [(gcol, 2 * g)], NORMAL_WEIGHT)
         # closeness to the design surface, linearised at the foot points
         points = np.arange(len(x))
-        system.add(((x - foot) * foot_normal).sum(-1),
-                   [(xcol(points), foot_normal)], self.weights["closeness"])
+        system.add(
+            ((x - foot) * foot_normal).sum(-1),
+            [(xcol(points), foot_normal)],
+            self.weights["closeness"],
+        )
         # fairness: second differences along both grid directions inside every panel
-        for a, b, e in ((ids[:, :-2, :], ids[:, 1:-1, :], ids[:, 2:, :]),
-                        (ids[:, :, :-2], ids[:, :, 1:-1], ids[:, :, 2:])):
+        for a, b, e in (
+            (ids[:, :-2, :], ids[:, 1:-1, :], ids[:, 2:, :]),
+            (ids[:, :, :-2], ids[:, :, 1:-1], ids[:, :, 2:]),
+        ):
             # against the design's own second differences: fairness keeps the grid lines
             # smooth (no zig-zag) without pulling a curved surface flat
             start = self.start_points
             second = (x[a] - 2 * x[b] + x[e]) - (start[a] - 2 * start[b] + start[e])
             for comp in range(3):
                 one = np.ones(a.shape)
-                system.add(second[..., comp].ravel(),
-                           [(3 * a + comp, one), (3 * b + comp, -2 * one), (3 * e + comp, one)],
-                           self.weights["fairness"])
+                system.add(
+                    second[..., comp].ravel(),
+                    [(3 * a + comp, one), (3 * b + comp, -2 * one), (3 * e + comp, one)],
+                    self.weights["fairness"],
+                )
         # boundary samples stay where they are
         on = np.flatnonzero(self.mesh.boundary)
         if len(on):
             moved = x[on] - self.start_points[on]
-            system.add(moved.ravel(), [(xcol(on).reshape(-1), np.ones(3 * len(on)))],
-                       BOUNDARY_WEIGHT)
+            system.add(
+                moved.ravel(), [(xcol(on).reshape(-1), np.ones(3 * len(on)))], BOUNDARY_WEIGHT
+            )
         return system
 
     def _angle_defects(self, system: _System, x: np.ndarray) -> None:
@@ -400,8 +454,8 @@ class GlobalOptimiser:
 
     def _angle_defects_of(self, system: _System, x: np.ndarray, tris: np.ndarray) -> None:
         m, k = self.m, self.k
-        corners = self.mesh.ids.reshape(m, k * k)[:, tris]                # (m, t, 3)
-        rows_local = self._interior_row[tris]                             # (t, 3), -1 outside
+        corners = self.mesh.ids.reshape(m, k * k)[:, tris]  # (m, t, 3)
+        rows_local = self._interior_row[tris]  # (t, 3), -1 outside
         angle_sum = np.zeros((m, (k - 2) ** 2))
         rows, cols, vals = [], [], []
         panel_offset = (np.arange(m) * (k - 2) ** 2)[:, None]
@@ -416,7 +470,12 @@ class GlobalOptimiser:
             theta = np.arctan2(cross, (u * v).sum(-1))
             row = rows_local[:, corner]
             inside = row >= 0
-            np.add.at(angle_sum, (slice(None), row[inside]), theta[:, inside])
+            # numpy's stubs for ufunc.at omit the documented tuple-with-slices index
+            np.add.at(
+                angle_sum,
+                (slice(None), row[inside]),  # type: ignore[arg-type]
+                theta[:, inside],
+            )
             # d theta / d b = -(unit vector in the plane, perpendicular to u, towards v) / |u|
             uh, vh = u / lu, v / lv
             wb = vh - (vh * uh).sum(-1, keepdims=True) * uh
@@ -425,14 +484,19 @@ class GlobalOptimiser:
             wc /= np.linalg.norm(wc, axis=-1, keepdims=True)
             d_b, d_c = -wb / lu, -wc / lv
             d_a = -(d_b + d_c)
-            r = (panel_offset + row[None, :])[:, inside]                  # (m, t_in)
+            r = (panel_offset + row[None, :])[:, inside]  # (m, t_in)
             for point, grad in ((a, d_a), (b, d_b), (c, d_c)):
                 # the residual is 2 pi - sum: its derivative is minus the angle's
                 rows.append(np.repeat(r.ravel(), 3))
                 cols.append((3 * point[:, inside][..., None] + np.arange(3)).ravel())
                 vals.append(-grad[:, inside].reshape(-1))
-        system.add_summed((2 * np.pi - angle_sum).ravel(), np.concatenate(rows),
-                          np.concatenate(cols), np.concatenate(vals), self.weights["defect"])
+        system.add_summed(
+            (2 * np.pi - angle_sum).ravel(),
+            np.concatenate(rows),
+            np.concatenate(cols),
+            np.concatenate(vals),
+            self.weights["defect"],
+        )
 
     def energy(self, z: np.ndarray, foot: np.ndarray, foot_normal: np.ndarray) -> float:
         residual = np.concatenate(self.system(z, foot, foot_normal).residuals)
@@ -463,16 +527,24 @@ class GlobalOptimiser:
             accepted = False
             for _ in range(12):
                 if direct:
-                    solution = spsolve(normal_matrix + damping * sp.identity(self.size,
-                                                                             format="csc"), rhs)
+                    solution = spsolve(
+                        normal_matrix + damping * sp.identity(self.size, format="csc"), rhs
+                    )
                 else:
-                    solution = lsmr(scaled, -residual, damp=np.sqrt(damping),
-                                    atol=LSMR_TOLERANCE, btol=LSMR_TOLERANCE,
-                                    maxiter=LSMR_ITERATIONS)[0]
+                    solution = lsmr(
+                        scaled,
+                        -residual,
+                        damp=np.sqrt(damping),
+                        atol=LSMR_TOLERANCE,
+                        btol=LSMR_TOLERANCE,
+                        maxiter=LSMR_ITERATIONS,
+                    )[0]
                 step = solution / norms
                 if not np.all(np.isfinite(step)):
-                    raise SolverError("the developability solver produced non-finite values; "
-                                      "check the layout for degenerate panels")
+                    raise SolverError(
+                        "the developability solver produced non-finite values; "
+                        "check the layout for degenerate panels"
+                    )
                 trial = z + step
                 trial_energy = self.energy(trial, foot, foot_normal)
                 if trial_energy < energy:
@@ -481,7 +553,7 @@ class GlobalOptimiser:
                 rejected += 1
                 damping *= DAMPING_UP
             if not accepted:
-                converged = True       # no descent left at any damping: a (local) minimum
+                converged = True  # no descent left at any damping: a (local) minimum
                 break
             damping = max(damping / DAMPING_DOWN, 1e-12)
             z = trial
@@ -493,20 +565,26 @@ class GlobalOptimiser:
                 linearised_at = x.copy()
             new_energy = self.energy(z, foot, foot_normal)
             history.append(new_energy)
-            if (abs(energy - new_energy) <= tolerance * max(energy, 1e-300)
-                    or new_energy <= NEGLIGIBLE_RMS ** 2 * len(residual)):
+            if abs(energy - new_energy) <= tolerance * max(
+                energy, 1e-300
+            ) or new_energy <= NEGLIGIBLE_RMS**2 * len(residual):
                 energy = new_energy
                 converged = True
                 break
             energy = new_energy
         self.z = z
-        return {"iterations": iterations, "rejected_steps": rejected, "converged": converged,
-                "energy_start": history[0], "energy_end": energy,
-                "seconds": round(time.perf_counter() - started, 3),
-                "unknowns": int(self.size)}
+        return {
+            "iterations": iterations,
+            "rejected_steps": rejected,
+            "converged": converged,
+            "energy_start": history[0],
+            "energy_end": energy,
+            "seconds": round(time.perf_counter() - started, 3),
+            "unknowns": int(self.size),
+        }
 
     # -- results ------------------------------------------------------------------------------
-    def result(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def result(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """samples (m, k, k, 3) mm; own normals (m, k, k, 3) unit (of the samples, by second-
         order differences); Gauss-image planes (m, 4) (h, d) of the cell normals; rib planes
         (E, 4) (g, c) in mm; cell normals (m, k-1, k-1, 3)."""
@@ -554,9 +632,16 @@ def develop_global(layout: PanelLayout, surface, job, query: SurfaceQuery):
 
     settings = job.develop
     samples0, normals0 = sample_panels(layout, query, settings.samples)
-    optimiser = GlobalOptimiser(layout, samples0, normals0, query,
-                                closeness=settings.closeness, fairness=settings.fairness,
-                                rib=settings.rib_planarity, depth=job.sandwich.total_depth)
+    optimiser = GlobalOptimiser(
+        layout,
+        samples0,
+        normals0,
+        query,
+        closeness=settings.closeness,
+        fairness=settings.fairness,
+        rib=settings.rib_planarity,
+        depth=job.sandwich.total_depth,
+    )
     report = optimiser.solve(settings.max_iterations, settings.tolerance)
     samples, own_normals, gauss_planes, _, cells = optimiser.result()
     normals = shared_side_normals(layout, own_normals)
@@ -564,28 +649,47 @@ def develop_global(layout: PanelLayout, surface, job, query: SurfaceQuery):
     # residual of the Gauss-image plane per panel, as an angle (degrees)
     h = gauss_planes[:, :3] / np.linalg.norm(gauss_planes[:, :3], axis=1, keepdims=True)
     offsets = np.einsum("mkld,md->mkl", cells, h)
-    circle = np.degrees(np.ptp(np.arcsin(np.clip(offsets, -1, 1)).reshape(len(h), -1), axis=1)
-                        ) / 2
+    circle = np.degrees(np.ptp(np.arcsin(np.clip(offsets, -1, 1)).reshape(len(h), -1), axis=1)) / 2
     before = gauss_image_areas(samples0)
     after = gauss_image_areas(samples)
     extra = {
         "solver": report,
         "gauss_image_area_before": {"max": float(before.max()), "mean": float(before.mean())},
         "gauss_image_area_after": {"max": float(after.max()), "mean": float(after.mean())},
-        "kink_deg": {"max": round(float(kinks.max()), 4),
-                     "p95": round(float(np.percentile(kinks[layout.side_neighbours >= 0], 95))
-                                  if (layout.side_neighbours >= 0).any() else 0.0, 4)},
+        "kink_deg": {
+            "max": round(float(kinks.max()), 4),
+            "p95": round(
+                float(np.percentile(kinks[layout.side_neighbours >= 0], 95))
+                if (layout.side_neighbours >= 0).any()
+                else 0.0,
+                4,
+            ),
+        },
         "gap_mm_max": round(float(gaps.max()), 6),
         "gauss_circle_residual_deg_max": round(float(circle.max()), 4),
     }
     issues = []
     if not report["converged"]:
-        issues.append(Issue("develop-not-converged",
-                            f"the developability solver stopped after {report['iterations']} "
-                            f"iterations without converging; raise [develop] max_iterations",
-                            "", "warning"))
-    result = developed_panels(layout, samples, normals, query, job, "global", extra,
-                              tuple(issues), design_samples=samples0)
+        issues.append(
+            Issue(
+                "develop-not-converged",
+                f"the developability solver stopped after {report['iterations']} "
+                f"iterations without converging; raise [develop] max_iterations",
+                "",
+                "warning",
+            )
+        )
+    result = developed_panels(
+        layout,
+        samples,
+        normals,
+        query,
+        job,
+        "global",
+        extra,
+        tuple(issues),
+        design_samples=samples0,
+    )
     for i, pid in enumerate(layout.panel_ids):
         panel = result.metrics["per_panel"][pid]
         panel["kink_deg"] = round(float(kinks[i].max()), 4)

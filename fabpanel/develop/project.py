@@ -22,16 +22,18 @@ from .sides import side_planes
 log = logging.getLogger(__name__)
 
 
-def develop(layout: PanelLayout, surface: Surface, job: Job,
-            query: SurfaceQuery | None = None) -> DevelopedPanels:
+def develop(
+    layout: PanelLayout, surface: Surface, job: Job, query: SurfaceQuery | None = None
+) -> DevelopedPanels:
     """Give every panel of ``layout`` its sample grid on the design surface, and measure it."""
     query = query or SurfaceQuery(surface)
     samples, normals = sample_panels(layout, query, job.develop.samples)
     return developed_panels(layout, samples, normals, query, job, "project")
 
 
-def sample_panels(layout: PanelLayout, query: SurfaceQuery, k: int) -> tuple[np.ndarray,
-                                                                              np.ndarray]:
+def sample_panels(
+    layout: PanelLayout, query: SurfaceQuery, k: int
+) -> tuple[np.ndarray, np.ndarray]:
     """k x k samples and outward normals of every panel on the design surface, (m, k, k, 3)
     each; neighbouring panels hold identical samples and normals along their shared side."""
     m = len(layout.quads)
@@ -45,28 +47,53 @@ def sample_panels(layout: PanelLayout, query: SurfaceQuery, k: int) -> tuple[np.
     return _share_sides(layout, samples, normals)
 
 
-def developed_panels(layout: PanelLayout, samples: np.ndarray, normals: np.ndarray,
-                     query: SurfaceQuery, job: Job, method: str, extra_metrics: dict | None = None,
-                     extra_issues: tuple = (),
-                     design_samples: np.ndarray | None = None) -> DevelopedPanels:
+def developed_panels(
+    layout: PanelLayout,
+    samples: np.ndarray,
+    normals: np.ndarray,
+    query: SurfaceQuery,
+    job: Job,
+    method: str,
+    extra_metrics: dict | None = None,
+    extra_issues: tuple = (),
+    design_samples: np.ndarray | None = None,
+) -> DevelopedPanels:
     """Rib planes, classes and measures of final panel grids, as :class:`DevelopedPanels`.
 
     ``design_samples``: the panels on the design surface before development, if they moved."""
     planes, edge_residuals, normal_angles, twist = side_planes(samples, normals)
     classes, radius, metrics, issues, deviation = classify_and_measure(
-        layout.panel_ids, samples, normals, edge_residuals, normal_angles, twist,
-        layout.side_neighbours < 0, query, job)
+        layout.panel_ids,
+        samples,
+        normals,
+        edge_residuals,
+        normal_angles,
+        twist,
+        layout.side_neighbours < 0,
+        query,
+        job,
+    )
     metrics["method"] = method
     metrics.update(extra_metrics or {})
     log.info("develop (%s): %s", method, {c: classes.count(c) for c in set(classes)})
-    return DevelopedPanels(layout=layout, samples=samples, normals=normals, side_planes=planes,
-                           classes=classes, bending_radius=radius, method=method,
-                           metrics=metrics, issues=tuple(extra_issues) + issues,
-                           deviation=deviation, design_samples=design_samples)
+    return DevelopedPanels(
+        layout=layout,
+        samples=samples,
+        normals=normals,
+        side_planes=planes,
+        classes=classes,
+        bending_radius=radius,
+        method=method,
+        metrics=metrics,
+        issues=tuple(extra_issues) + issues,
+        deviation=deviation,
+        design_samples=design_samples,
+    )
 
 
-def surface_sides(starts: np.ndarray, ends: np.ndarray, query: SurfaceQuery, count: int,
-                  levels: int = 6) -> np.ndarray:
+def surface_sides(
+    starts: np.ndarray, ends: np.ndarray, query: SurfaceQuery, count: int, levels: int = 6
+) -> np.ndarray:
     """Polylines on the surface between point pairs, evenly spaced by arc length.
 
     Repeated midpoint subdivision with projection onto the surface (``levels`` times, so
@@ -84,11 +111,12 @@ def surface_sides(starts: np.ndarray, ends: np.ndarray, query: SurfaceQuery, cou
     return resample_polylines(lines, count)
 
 
-def _surface_patches(layout: PanelLayout, query: SurfaceQuery,
-                     k: int) -> tuple[np.ndarray, np.ndarray]:
+def _surface_patches(
+    layout: PanelLayout, query: SurfaceQuery, k: int
+) -> tuple[np.ndarray, np.ndarray]:
     """k x k samples per panel: sides traced on the surface, interiors by Coons, projected."""
     m = len(layout.quads)
-    edges = layout.edges                                      # (e, 2) sorted vertex pairs
+    edges = layout.edges  # (e, 2) sorted vertex pairs
     curves = surface_sides(layout.vertices[edges[:, 0]], layout.vertices[edges[:, 1]], query, k)
     lookup = {(int(a), int(b)): i for i, (a, b) in enumerate(edges)}
     starts, ends = layout.quads, np.roll(layout.quads, -1, axis=1)
@@ -108,8 +136,9 @@ def _surface_patches(layout: PanelLayout, query: SurfaceQuery,
     return points, normals.reshape(m, k, k, 3)
 
 
-def _pin_corners(layout: PanelLayout, samples: np.ndarray,
-                 normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _pin_corners(
+    layout: PanelLayout, samples: np.ndarray, normals: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Make the grid corners the layout's corner points exactly (no copy drift at shared corners)."""
     samples = samples.copy()
     corners = layout.vertices[layout.quads]
@@ -125,8 +154,9 @@ def _side_index(k: int, side: int) -> tuple[np.ndarray, np.ndarray]:
     return [(r, first), (last, r), (r[::-1], last), (first, r[::-1])][side]
 
 
-def _share_sides(layout: PanelLayout, samples: np.ndarray,
-                 normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _share_sides(
+    layout: PanelLayout, samples: np.ndarray, normals: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Copy each shared side's samples from the lower-numbered panel to the other one.
 
     Both panels computed the side from the same two corners, so the copy changes nothing but
@@ -138,8 +168,9 @@ def _share_sides(layout: PanelLayout, samples: np.ndarray,
     for panel, side in zip(*np.nonzero(neighbours > panel_index(neighbours))):
         other = neighbours[panel, side]
         a, b = layout.quads[panel, side], layout.quads[panel, (side + 1) % 4]
-        other_side = int(np.flatnonzero((layout.quads[other] == b)
-                                        & (np.roll(layout.quads[other], -1) == a))[0])
+        other_side = int(
+            np.flatnonzero((layout.quads[other] == b) & (np.roll(layout.quads[other], -1) == a))[0]
+        )
         src, dst = _side_index(k, side), _side_index(k, other_side)
         # the neighbour runs the shared side the other way round
         samples[other][dst[0], dst[1]] = samples[panel][src[0], src[1]][::-1]

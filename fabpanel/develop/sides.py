@@ -13,8 +13,9 @@ def panel_sides(grids: np.ndarray) -> np.ndarray:
     grids : (m, k, k, c) float (points or normals, see :class:`fabpanel.data.DevelopedPanels`)
     Returns (m, 4, k, c).
     """
-    return np.stack([grids[:, :, 0], grids[:, -1, :], grids[:, ::-1, -1], grids[:, 0, ::-1]],
-                    axis=1)
+    return np.stack(
+        [grids[:, :, 0], grids[:, -1, :], grids[:, ::-1, -1], grids[:, 0, ::-1]], axis=1
+    )
 
 
 #: a side that lies this close (mm) to the plane through its own direction and its mean normal
@@ -23,8 +24,9 @@ def panel_sides(grids: np.ndarray) -> np.ndarray:
 SQUARE_RIB_FIT = 0.05
 
 
-def side_planes(samples: np.ndarray,
-                normals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def side_planes(
+    samples: np.ndarray, normals: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Rib plane of every panel side, with how well the side and its normals lie in it.
 
     The plane holds the sheet edge: the best-fitting plane of the side's samples, or, where the
@@ -40,7 +42,7 @@ def side_planes(samples: np.ndarray,
     cone (angle constant, not 0).
     """
     m, k = samples.shape[:2]
-    side_points = panel_sides(samples)                      # (m, 4, k, 3)
+    side_points = panel_sides(samples)  # (m, 4, k, 3)
     side_normals = panel_sides(normals)
     flat_points = side_points.reshape(m * 4, k, 3)
     plane_normals, offsets, edge_fit = bestfit_planes(flat_points)
@@ -50,13 +52,14 @@ def side_planes(samples: np.ndarray,
     square = np.cross(direction, side_normals.reshape(m * 4, k, 3).sum(axis=1))
     square /= np.maximum(np.linalg.norm(square, axis=1, keepdims=True), 1e-300)
     square_offsets = np.einsum("bi,bi->b", square, centroid)
-    square_fit = np.abs(np.einsum("bki,bi->bk", flat_points, square)
-                        - square_offsets[:, None]).max(axis=1)
+    square_fit = np.abs(np.einsum("bki,bi->bk", flat_points, square) - square_offsets[:, None]).max(
+        axis=1
+    )
     use_square = square_fit <= np.maximum(SQUARE_RIB_FIT, edge_fit)
     plane_normals = np.where(use_square[:, None], square, plane_normals).reshape(m, 4, 3)
     offsets = np.where(use_square, square_offsets, offsets).reshape(m, 4)
     # orient each plane normal towards the panel's centre sample
-    centre = samples[:, k // 2, k // 2]                     # (m, 3)
+    centre = samples[:, k // 2, k // 2]  # (m, 3)
     inward = np.einsum("msi,mi->ms", plane_normals, centre) - offsets < 0
     plane_normals[inward] *= -1
     offsets[inward] *= -1
@@ -97,8 +100,9 @@ def across_sides(layout, grids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return own, theirs
 
 
-def side_gaps_and_kinks(layout, samples: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray,
-                                                                                  np.ndarray]:
+def side_gaps_and_kinks(
+    layout, samples: np.ndarray, normals: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Largest gap (mm) and kink angle (degrees) between every panel side and its neighbour's
     copy of it; (m, 4) each, 0 on the boundary."""
     own, theirs = across_sides(layout, samples)

@@ -22,8 +22,9 @@ RADIUS_MM = 4000.0
 LENGTH_MM = 12000.0
 
 
-def write_barrel_vault_step(path: str | Path, radius: float = RADIUS_MM,
-                            length: float = LENGTH_MM) -> Path:
+def write_barrel_vault_step(
+    path: str | Path, radius: float = RADIUS_MM, length: float = LENGTH_MM
+) -> Path:
     """One cylindrical face: axis along +x, springing lines at z = 0, crown at z = radius (mm)."""
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
     from OCP.Geom import Geom_CylindricalSurface
@@ -45,9 +46,13 @@ def write_barrel_vault_step(path: str | Path, radius: float = RADIUS_MM,
     return path
 
 
-def write_barrel_vault_obj(path: str | Path, radius_m: float = RADIUS_MM / 1000,
-                           length_m: float = LENGTH_MM / 1000, arc_segments: int = 96,
-                           length_segments: int = 48) -> Path:
+def write_barrel_vault_obj(
+    path: str | Path,
+    radius_m: float = RADIUS_MM / 1000,
+    length_m: float = LENGTH_MM / 1000,
+    arc_segments: int = 96,
+    length_segments: int = 48,
+) -> Path:
     """The same vault as a quad mesh in metres."""
     angles = np.linspace(0.0, math.pi, arc_segments + 1)
     xs = np.linspace(0.0, length_m, length_segments + 1)

@@ -15,12 +15,12 @@ from .nest_output import write_nests
 from .unroll import cut
 
 __all__ = [
-           "audit_dxf",
-           "cut",
-           "nest",
-           "part_area_from_dxf",
-           "validate_nests",
-           "write_nests",
-           "write_part_dxf",
-           "write_parts",
+    "audit_dxf",
+    "cut",
+    "nest",
+    "part_area_from_dxf",
+    "validate_nests",
+    "write_nests",
+    "write_part_dxf",
+    "write_parts",
 ]

@@ -75,12 +75,12 @@ class Bending:
             return "OUT"
         if not len(self.radii):
             return f"OUT {'CONVEX' if self.convex else 'CONCAVE'}"
-        low, high = int(round(self.radii[:, 0].min())), int(round(self.radii[:, 1].max()))
+        low, high = round(self.radii[:, 0].min()), round(self.radii[:, 1].max())
         if high - low <= max(0.01 * low, 1):
             radius = f"R{low}"
         elif high <= OPEN_RADIUS_RATIO * low:
             radius = f"R{low}-{high}"
-        else:                               # opens out to nearly flat: the tightest radius
+        else:  # opens out to nearly flat: the tightest radius
             radius = f"R{low}+"
         return f"OUT {'CONVEX' if self.convex else 'CONCAVE'} {radius}"
 
@@ -90,8 +90,7 @@ def _solve2(jacobian: np.ndarray, columns: np.ndarray) -> np.ndarray:
     return columns @ np.linalg.inv(jacobian)
 
 
-def curvature_field(grid: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray,
-                                                                np.ndarray]:
+def curvature_field(grid: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Principal directions and curvatures of a sampled surface in flat coordinates.
 
     grid : (a, b, 3) float, the surface samples, mm; uv : (a, b, 2) float, their flat positions.
@@ -130,8 +129,7 @@ def _undoubled(doubled: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(angle), np.sin(angle)], axis=-1)
 
 
-def _chord(seed: np.ndarray, angle: float, polygon: Polygon, reach: float
-           ) -> np.ndarray | None:
+def _chord(seed: np.ndarray, angle: float, polygon: Polygon, reach: float) -> np.ndarray | None:
     """(2, 2) float: the piece of the line through ``seed`` at ``angle`` inside the polygon."""
     direction = np.array([np.cos(angle), np.sin(angle)])
     cut = LineString([seed - reach * direction, seed + reach * direction]).intersection(polygon)
@@ -142,8 +140,9 @@ def _chord(seed: np.ndarray, angle: float, polygon: Polygon, reach: float
     return np.asarray(piece.coords)[[0, -1]]
 
 
-def _normal_spread(seed: np.ndarray, angle: float, polygon: Polygon, reach: float,
-                   normals: LinearNDInterpolator) -> float:
+def _normal_spread(
+    seed: np.ndarray, angle: float, polygon: Polygon, reach: float, normals: LinearNDInterpolator
+) -> float:
     """How much the surface normal varies along the chord through ``seed`` at ``angle``."""
     ends = _chord(seed, angle, polygon, reach)
     if ends is None:
@@ -156,28 +155,30 @@ def _normal_spread(seed: np.ndarray, angle: float, polygon: Polygon, reach: floa
     return float(((sampled - sampled.mean(axis=0)) ** 2).sum(axis=1).mean())
 
 
-def bending_of(grid: np.ndarray, uv: np.ndarray, outline: np.ndarray,
-               count: int = BEND_LINES) -> Bending:
+def bending_of(
+    grid: np.ndarray, uv: np.ndarray, outline: np.ndarray, count: int = BEND_LINES
+) -> Bending:
     """Classify a sheet and lay its bend lines (see the module docstring)."""
     ruling, bending, residual = curvature_field(grid, uv)
     diagonal = float(np.linalg.norm(np.ptp(uv.reshape(-1, 2), axis=0)))
     big = np.abs(bending)
-    if big.max() * diagonal ** 2 / 8 < FLAT_SAGITTA:
+    if big.max() * diagonal**2 / 8 < FLAT_SAGITTA:
         return Bending("flat", np.zeros((0, 2, 2)), np.zeros((0, 2)), False)
     if np.median(np.abs(residual)) > SINGLE_CURVED_RATIO * np.median(big):
-        return Bending("double", np.zeros((0, 2, 2)), np.zeros((0, 2)), bool(np.median(bending) < 0))
+        return Bending(
+            "double", np.zeros((0, 2, 2)), np.zeros((0, 2)), bool(np.median(bending) < 0)
+        )
     points = uv.reshape(-1, 2)
     doubled = _doubled(ruling.reshape(-1, 2))
     # where the sheet hardly bends its ruling direction is noise: weight by curvature
     weights = big.reshape(-1)
     field = LinearNDInterpolator(points, np.column_stack([doubled * weights[:, None], weights]))
-    nearest = NearestNDInterpolator(points, np.column_stack([doubled * weights[:, None],
-                                                             weights]))
+    nearest = NearestNDInterpolator(points, np.column_stack([doubled * weights[:, None], weights]))
     curvature = LinearNDInterpolator(points, bending.reshape(-1))
     normal = np.cross(*np.gradient(grid, axis=(0, 1), edge_order=2))
-    normals = LinearNDInterpolator(points, (normal / np.linalg.norm(normal, axis=-1,
-                                                                    keepdims=True)
-                                            ).reshape(-1, 3))
+    normals = LinearNDInterpolator(
+        points, (normal / np.linalg.norm(normal, axis=-1, keepdims=True)).reshape(-1, 3)
+    )
     mean_ruling = _undoubled((doubled * weights[:, None]).sum(axis=0))
     across = np.array([-mean_ruling[1], mean_ruling[0]])
     polygon = Polygon(outline)
@@ -186,13 +187,15 @@ def bending_of(grid: np.ndarray, uv: np.ndarray, outline: np.ndarray,
     reach = 2.0 * diagonal
     for s in np.linspace(station.min(), station.max(), count + 2)[1:-1]:
         base = s * across
-        cross = LineString([base - reach * mean_ruling,
-                            base + reach * mean_ruling]).intersection(polygon)
+        cross = LineString([base - reach * mean_ruling, base + reach * mean_ruling]).intersection(
+            polygon
+        )
         pieces = [g for g in getattr(cross, "geoms", [cross]) if g.length > 0]
         if not pieces:
             continue
-        seed = np.asarray(max(pieces, key=lambda g: g.length).interpolate(0.5, normalized=True)
-                          .coords[0])
+        seed = np.asarray(
+            max(pieces, key=lambda g: g.length).interpolate(0.5, normalized=True).coords[0]
+        )
         value = field(seed[None])[0]
         if not np.all(np.isfinite(value)):
             value = nearest(seed[None])[0]
@@ -201,9 +204,12 @@ def bending_of(grid: np.ndarray, uv: np.ndarray, outline: np.ndarray,
         # normal does not change, so turn the line about its seed until the normals sampled
         # along it agree best
         angle = float(np.arctan2(direction[1], direction[0]))
-        found = minimize_scalar(lambda a, s=seed: _normal_spread(s, a, polygon, reach, normals),
-                                bounds=(angle - REFINE_ANGLE, angle + REFINE_ANGLE),
-                                method="bounded", options={"xatol": 1e-6})
+        found = minimize_scalar(
+            lambda a, s=seed: _normal_spread(s, a, polygon, reach, normals),
+            bounds=(angle - REFINE_ANGLE, angle + REFINE_ANGLE),
+            method="bounded",
+            options={"xatol": 1e-6},
+        )
         ends = _chord(seed, float(found.x), polygon, reach)
         if ends is None:
             continue
@@ -213,10 +219,13 @@ def bending_of(grid: np.ndarray, uv: np.ndarray, outline: np.ndarray,
         if not len(samples) or np.abs(samples).min() < 1e-12:
             continue
         lines.append(ends)
-        radii.append(1.0 / np.abs(samples)[[np.argmax(np.abs(samples)),
-                                             np.argmin(np.abs(samples))]])
+        radii.append(
+            1.0 / np.abs(samples)[[np.argmax(np.abs(samples)), np.argmin(np.abs(samples))]]
+        )
     convex = bool(np.median(bending[np.abs(bending) > 0.5 * big.max()]) < 0)
-    return Bending("single", np.array(lines).reshape(-1, 2, 2), np.array(radii).reshape(-1, 2), convex)
+    return Bending(
+        "single", np.array(lines).reshape(-1, 2, 2), np.array(radii).reshape(-1, 2), convex
+    )
 
 
 __all__ = ["Bending", "bending_of", "curvature_field"]

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import ezdxf
 import numpy as np
+from ezdxf.entities import LWPolyline
 from ezdxf.path import make_path
 
 from ..data import FlatPart, FlatParts
@@ -60,14 +61,13 @@ def etch_polylines(part: FlatPart) -> list[np.ndarray]:
     lines += [np.asarray(b, dtype=float) for b in part.bend_lines]
     for text, x, y, height, angle in part.labels:
         lines += text_strokes(text, x, y, height, angle)
-    for hole in part.drill_holes:            # a centre cross for the drill
+    for hole in part.drill_holes:  # a centre cross for the drill
         centre, arm = np.asarray(hole.centre, dtype=float), 0.75 * hole.diameter
         lines += [centre + [[-arm, 0.0], [arm, 0.0]], centre + [[0.0, -arm], [0.0, arm]]]
     return lines
 
 
-def add_part(msp, part: FlatPart, transform: np.ndarray | None = None,
-             etch: bool = True) -> None:
+def add_part(msp, part: FlatPart, transform: np.ndarray | None = None, etch: bool = True) -> None:
     """Add one part's entities to a modelspace in cut order: etch, holes, outer contour.
 
     transform : (3, 3) float or None, flat frame -> drawing, mm (a rigid motion).
@@ -75,8 +75,8 @@ def add_part(msp, part: FlatPart, transform: np.ndarray | None = None,
     if etch:
         for line in etch_polylines(part):
             msp.add_lwpolyline(_apply(transform, line).tolist(), dxfattribs={"layer": "ETCH"})
-    for hole in part.holes:
-        add_contour(msp, hole, "CUT-INNER", transform)
+    for contour in part.holes:
+        add_contour(msp, contour, "CUT-INNER", transform)
     for hole in part.round_holes:
         centre = _apply(transform, np.array([hole.centre]))[0]
         msp.add_circle(centre.tolist(), hole.diameter / 2, dxfattribs={"layer": "CUT-INNER"})
@@ -135,8 +135,11 @@ def audit_dxf(path: str | Path) -> list[str]:
         problems.append(f"$INSUNITS is {doc.header.get('$INSUNITS')}, not 4 (mm)")
     kinds = {e.dxftype() for e in doc.modelspace()}
     problems += [f"{kind} entity present" for kind in FORBIDDEN if kind in kinds]
-    problems += [f"open contour on {e.dxf.layer}" for e in doc.modelspace()
-                 if e.dxftype() == "LWPOLYLINE" and e.dxf.layer.startswith("CUT") and not e.closed]
+    problems += [
+        f"open contour on {e.dxf.layer}"
+        for e in doc.modelspace()
+        if isinstance(e, LWPolyline) and e.dxf.layer.startswith("CUT") and not e.closed
+    ]
     return problems
 
 
@@ -155,6 +158,7 @@ def part_area_from_dxf(path: str | Path) -> float:
     msp = ezdxf.readfile(str(path)).modelspace()
     outer = _polyline_area(msp.query('LWPOLYLINE[layer=="CUT-OUTER"]'))
     inner = _polyline_area(msp.query('LWPOLYLINE[layer=="CUT-INNER"]'))
-    circles = sum(np.pi * c.dxf.radius ** 2
-                  for c in msp.query('CIRCLE[layer=="CUT-INNER" | layer=="DRILL"]'))
+    circles = sum(
+        np.pi * c.dxf.radius**2 for c in msp.query('CIRCLE[layer=="CUT-INNER" | layer=="DRILL"]')
+    )
     return float(outer - inner - circles)

@@ -73,7 +73,7 @@ def rotation_matrix(degrees: float) -> np.ndarray:
     """(2, 2) float; exact for multiples of 90 degrees."""
     quarter = degrees / 90.0
     if abs(quarter - round(quarter)) < 1e-6:
-        c, s = [(1, 0), (0, 1), (-1, 0), (0, -1)][int(round(quarter)) % 4]
+        c, s = [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)][round(quarter) % 4]
     else:
         c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
     return np.array([[c, -s], [s, c]], dtype=float)
@@ -100,8 +100,9 @@ def validate_outline(outline: np.ndarray, name: str) -> np.ndarray:
     if abs(area) < 1e-6:
         raise ValueError(f"{name}: outline has zero area")
     if not shapely.is_valid(Polygon(points)):
-        raise ValueError(f"{name}: outline is not simple "
-                         f"({shapely.is_valid_reason(Polygon(points))})")
+        raise ValueError(
+            f"{name}: outline is not simple ({shapely.is_valid_reason(Polygon(points))})"
+        )
     return points if area > 0 else points[::-1].copy()
 
 
@@ -110,41 +111,56 @@ def packing_shape(outline: np.ndarray, grow: float) -> np.ndarray:
 
     The result holds every point within ``grow - SIMPLIFY_TOLERANCE`` of the outline.
     """
-    grown = Polygon(outline).buffer(grow + SIMPLIFY_TOLERANCE, join_style="mitre",
-                                    mitre_limit=4.0)
+    grown = Polygon(outline).buffer(grow + SIMPLIFY_TOLERANCE, join_style="mitre", mitre_limit=4.0)
     simple = grown.simplify(SIMPLIFY_TOLERANCE, preserve_topology=True)
     simple = shapely.geometry.polygon.orient(Polygon(simple.exterior), 1.0)
     return np.asarray(simple.exterior.coords)[:-1]
 
 
-def _fitting_rotations(shape: np.ndarray, rotations: list[int], length: float,
-                       height: float) -> tuple[int, ...]:
+def _fitting_rotations(
+    shape: np.ndarray, rotations: list[int], length: float, height: float
+) -> tuple[int, ...]:
     size = shape.max(axis=0) - shape.min(axis=0)
     fits = []
     for r in rotations:
         w, h = size if r % 180 == 0 else size[::-1]
         # the same rounding as the box assignment (0.1 mm up, plate down), and strictly inside:
         # spyrrow fails on a shape exactly as high as its strip
-        if (np.ceil(w * 10) <= np.floor(length * 10) and np.ceil(h * 10) <= np.floor(height * 10)
-                and w < length - 1e-3 and h < height - 1e-3):
+        if (
+            np.ceil(w * 10) <= np.floor(length * 10)
+            and np.ceil(h * 10) <= np.floor(height * 10)
+            and w < length - 1e-3
+            and h < height - 1e-3
+        ):
             fits.append(int(r))
     return tuple(fits)
 
 
-def _pack_strip(items: list[_Item], height: float, seconds: int, seed: int
-                ) -> tuple[list[np.ndarray], float]:
+def _pack_strip(
+    items: list[_Item], height: float, seconds: int, seed: int
+) -> tuple[list[np.ndarray], float]:
     """Pack items in a strip; returns one (3, 3) transform (part frame -> strip) per item."""
-    spy_items = [spyrrow.Item(str(i), [tuple(p) for p in item.shape.tolist()], demand=1,
-                              allowed_orientations=[float(r) for r in item.rotations])
-                 for i, item in enumerate(items)]
+    spy_items = [
+        spyrrow.Item(
+            str(i),
+            [tuple(p) for p in item.shape.tolist()],
+            demand=1,
+            allowed_orientations=[float(r) for r in item.rotations],
+        )
+        for i, item in enumerate(items)
+    ]
     try:
         instance = spyrrow.StripPackingInstance("fabpanel", float(height), spy_items)
-        config = spyrrow.StripPackingConfig(early_termination=True, num_workers=1,
-                                            total_computation_time=int(seconds), seed=int(seed))
+        config = spyrrow.StripPackingConfig(
+            early_termination=True,
+            num_workers=1,
+            total_computation_time=int(seconds),
+            seed=int(seed),
+        )
         solution = instance.solve(config)
     except (KeyboardInterrupt, SystemExit):
         raise
-    except BaseException as err:      # noqa: BLE001 - spyrrow panics arrive as BaseException
+    except BaseException as err:  # spyrrow panics arrive as BaseException
         raise SolverError(f"spyrrow failed to pack {len(items)} parts: {err}") from err
     transforms: list[np.ndarray | None] = [None] * len(items)
     for placed in solution.placed_items:
@@ -152,9 +168,12 @@ def _pack_strip(items: list[_Item], height: float, seconds: int, seed: int
         t[:2, :2] = rotation_matrix(placed.rotation)
         t[:2, 2] = placed.translation
         transforms[int(placed.id)] = t
-    if any(t is None for t in transforms):
-        raise SolverError("spyrrow left parts unplaced in an unbounded strip")
-    return transforms, float(solution.width)
+    placed_transforms: list[np.ndarray] = []
+    for transform in transforms:
+        if transform is None:
+            raise SolverError("spyrrow left parts unplaced in an unbounded strip")
+        placed_transforms.append(transform)
+    return placed_transforms, float(solution.width)
 
 
 def _round_seconds(seconds: float) -> int:
@@ -171,12 +190,17 @@ class _Packing:
 
 def _spans(items: list[_Item], transforms: list[np.ndarray]) -> np.ndarray:
     """(n, 2) float: x range of each placed item's shape."""
-    return np.array([[(x := transform_points(t, it.shape)[:, 0]).min(), x.max()]
-                     for it, t in zip(items, transforms)])
+    return np.array(
+        [
+            [(x := transform_points(t, it.shape)[:, 0]).min(), x.max()]
+            for it, t in zip(items, transforms)
+        ]
+    )
 
 
-def _pack_on_plate(items: list[_Item], length: float, height: float, seconds: int,
-                   seed: int) -> _Packing | None:
+def _pack_on_plate(
+    items: list[_Item], length: float, height: float, seconds: int, seed: int
+) -> _Packing | None:
     """Pack items into one plate (a strip ``length`` long) or return None when they need more."""
     transforms, _ = _pack_strip(items, height, seconds, seed)
     spans = _spans(items, transforms)
@@ -187,18 +211,19 @@ def _pack_on_plate(items: list[_Item], length: float, height: float, seconds: in
     return _Packing(list(items), [shift @ t for t in transforms])
 
 
-def _box_plates(items: list[_Item], length: float, height: float, rotate: bool
-                ) -> list[_Packing]:
+def _box_plates(items: list[_Item], length: float, height: float, rotate: bool) -> list[_Packing]:
     """A first, always feasible assignment: the items' bounding boxes packed onto plates by
     rectpack (MaxRects, best-fit bins, quarter turns when ``rotate``), boxes rounded up to
     0.1 mm and the plate down, so every shape lies in its box on its plate."""
-    packer = rectpack.newPacker(mode=rectpack.PackingMode.Offline,
-                                bin_algo=rectpack.PackingBin.BFF,
-                                pack_algo=rectpack.MaxRectsBssf, rotation=rotate)
+    packer = rectpack.newPacker(
+        mode=rectpack.PackingMode.Offline,
+        bin_algo=rectpack.PackingBin.BFF,
+        pack_algo=rectpack.MaxRectsBssf,
+        rotation=rotate,
+    )
     # each box in the item's first allowed rotation; a turned box is a quarter turn more
     base = [rotation_matrix(it.rotations[0]) for it in items]
-    boxes = [np.ceil(np.ptp(it.shape @ r.T, axis=0) * 10).astype(int)
-             for it, r in zip(items, base)]
+    boxes = [np.ceil(np.ptp(it.shape @ r.T, axis=0) * 10).astype(int) for it, r in zip(items, base)]
     for index, box_size in enumerate(boxes):
         packer.add_rect(int(box_size[0]), int(box_size[1]), rid=index)
     packer.add_bin(int(length * 10), int(height * 10), count=float("inf"))
@@ -210,8 +235,9 @@ def _box_plates(items: list[_Item], length: float, height: float, rotate: bool
             item = items[rect.rid]
             turned = (rect.width, rect.height) != tuple(boxes[rect.rid])
             first = item.rotations[0]
-            rotation = next((r for r in item.rotations if ((r - first) % 180 == 90) == turned),
-                            None)
+            rotation = next(
+                (r for r in item.rotations if ((r - first) % 180 == 90) == turned), None
+            )
             if rotation is None:
                 raise SolverError(f"rectpack turned {item.part.id}, which may not turn")
             t = np.eye(3)
@@ -221,19 +247,22 @@ def _box_plates(items: list[_Item], length: float, height: float, rotate: bool
             transforms.append(t)
         plates.append(_Packing(members, transforms))
     if sum(len(p.items) for p in plates) != len(items):
-        raise SolverError(f"rectpack placed {sum(len(p.items) for p in plates)} of "
-                          f"{len(items)} parts")
+        raise SolverError(
+            f"rectpack placed {sum(len(p.items) for p in plates)} of {len(items)} parts"
+        )
     return plates
 
 
-def _fill(plate: _Packing, waiting: list[_Item], length: float, height: float, seconds: int,
-          seed: int) -> _Packing:
+def _fill(
+    plate: _Packing, waiting: list[_Item], length: float, height: float, seconds: int, seed: int
+) -> _Packing:
     """Add parts from ``waiting`` to a plate while everything still packs onto it.
 
     The smallest waiting parts, by a binary search on how many (at most ``FILL_PROBES``
     constructive packs, bounded by the free area); with a time budget, one more part is tried
     with spyrrow's improvement phase.
     """
+
     def area(item: _Item) -> float:
         return abs(polygon_area(item.shape))
 
@@ -251,15 +280,20 @@ def _fill(plate: _Packing, waiting: list[_Item], length: float, height: float, s
             high = middle - 1
         else:
             low, best = middle, packed
-    if seconds > 0 and low < len(extras) and areas[:low + 1].sum() <= free:
-        packed = _pack_on_plate(plate.items + extras[:low + 1], length, height, seconds, seed)
+    if seconds > 0 and low < len(extras) and areas[: low + 1].sum() <= free:
+        packed = _pack_on_plate(plate.items + extras[: low + 1], length, height, seconds, seed)
         best = packed or best
     return best
 
 
-def _nest_group(items: list[_Item], job: Job, grow: float, budget_s: float, seed: int,
-                on_round: Callable[[int], None]
-                ) -> tuple[list[list[tuple[_Item, np.ndarray]]], int]:
+def _nest_group(
+    items: list[_Item],
+    job: Job,
+    grow: float,
+    budget_s: float,
+    seed: int,
+    on_round: Callable[[int], None],
+) -> tuple[list[list[tuple[_Item, np.ndarray]]], int]:
     """Plates of one group: per plate a list of (item, transform part frame -> plate); and how
     many plates the bounding boxes alone needed.
 
@@ -286,26 +320,32 @@ def _nest_group(items: list[_Item], job: Job, grow: float, budget_s: float, seed
         if not keep:
             continue
         members = [assigned.items[k] for k in keep]
-        plate = (_pack_on_plate(members, length, height, 0, seed + index)
-                 or _Packing(members, [assigned.transforms[k] for k in keep]))
-        waiting = sorted((it for later in boxes[index + 1:] for it in later.items
-                          if id(it) not in placed), key=lambda it: abs(polygon_area(it.shape)))
+        plate = _pack_on_plate(members, length, height, 0, seed + index) or _Packing(
+            members, [assigned.transforms[k] for k in keep]
+        )
+        waiting = sorted(
+            (it for later in boxes[index + 1 :] for it in later.items if id(it) not in placed),
+            key=lambda it: abs(polygon_area(it.shape)),
+        )
         if len(plate.items) == len(members) and waiting:
             left = _round_seconds(deadline - time.perf_counter())
             plate = _fill(plate, waiting, length, height, min(share, left), seed + index)
         placed |= {id(it) for it in plate.items}
         plates.append([(it, offset @ t) for it, t in zip(plate.items, plate.transforms)])
         on_round(len(items) - len(placed))
-    log.debug("nest: %d parts on %d plates (bounding boxes: %d)", len(items), len(plates),
-              len(boxes))
+    log.debug(
+        "nest: %d parts on %d plates (bounding boxes: %d)", len(items), len(plates), len(boxes)
+    )
     return plates, len(boxes)
 
 
 def cut_length(part: FlatPart) -> float:
     """Total cut length of a part, mm: outline, polygon holes, round holes."""
-    return (polyline_length(part.outline, closed=True)
-            + sum(polyline_length(h, closed=True) for h in part.holes)
-            + sum(math.pi * h.diameter for h in part.round_holes))
+    return (
+        polyline_length(part.outline, closed=True)
+        + sum(polyline_length(h, closed=True) for h in part.holes)
+        + sum(math.pi * h.diameter for h in part.round_holes)
+    )
 
 
 def pierces(part: FlatPart) -> int:
@@ -321,12 +361,13 @@ def _grow(job: Job) -> float:
 def _usable(job: Job) -> tuple[float, float]:
     """(length, height) of the area the grown shapes are packed into on one plate, mm."""
     cutting, grow = job.cutting, _grow(job)
-    return (cutting.plate_length - 2 * cutting.plate_margin + 2 * grow,
-            cutting.plate_width - 2 * cutting.plate_margin + 2 * grow)
+    return (
+        cutting.plate_length - 2 * cutting.plate_margin + 2 * grow,
+        cutting.plate_width - 2 * cutting.plate_margin + 2 * grow,
+    )
 
 
-def _groups(flat: FlatParts, job: Job) -> tuple[dict[tuple[str, float], list[_Item]],
-                                                list[Issue]]:
+def _groups(flat: FlatParts, job: Job) -> tuple[dict[tuple[str, float], list[_Item]], list[Issue]]:
     """Parts ready for packing, by (material, thickness); issues for parts left out."""
     cutting = job.cutting
     length, height = _usable(job)
@@ -342,12 +383,17 @@ def _groups(flat: FlatParts, job: Job) -> tuple[dict[tuple[str, float], list[_It
         rotations = _fitting_rotations(shape, list(cutting.rotations), length, height)
         if not rotations:
             size = outline.max(axis=0) - outline.min(axis=0)
-            issues.append(Issue(
-                "part-too-large",
-                f"{part.id} ({size[0]:.0f} x {size[1]:.0f} mm plus {cutting.part_spacing:g} mm "
-                f"spacing) fits no {cutting.plate_length:.0f} x {cutting.plate_width:.0f} mm "
-                f"plate with {cutting.plate_margin:g} mm margin in rotations "
-                f"{list(cutting.rotations)}; it is left out of the nests", part.id, "error"))
+            issues.append(
+                Issue(
+                    "part-too-large",
+                    f"{part.id} ({size[0]:.0f} x {size[1]:.0f} mm plus {cutting.part_spacing:g} mm "
+                    f"spacing) fits no {cutting.plate_length:.0f} x {cutting.plate_width:.0f} mm "
+                    f"plate with {cutting.plate_margin:g} mm margin in rotations "
+                    f"{list(cutting.rotations)}; it is left out of the nests",
+                    part.id,
+                    "error",
+                )
+            )
             continue
         groups[(part.material, float(part.thickness))].append(_Item(part, shape, rotations))
     return groups, issues
@@ -359,17 +405,23 @@ def bounding_box_plates(flat: FlatParts, job: Job) -> dict[tuple[str, float], in
     length, height = _usable(job)
     turns = {r % 180 for r in job.cutting.rotations} == {0, 90}
     groups, _ = _groups(flat, job)
-    return {key: len(_box_plates(items, length, height, turns))
-            for key, items in sorted(groups.items())}
+    return {
+        key: len(_box_plates(items, length, height, turns)) for key, items in sorted(groups.items())
+    }
 
 
-def _reporter(progress: Progress | None, done: int, count: int, total: int, group: str
-              ) -> Callable[[int], None]:
+def _reporter(
+    progress: Progress | None, done: int, count: int, total: int, group: str
+) -> Callable[[int], None]:
     """Progress callback of one group: called with the number of its parts still waiting."""
+
     def on_round(left: int) -> None:
         if progress is not None:
-            progress((done + count - left) / max(total, 1),
-                     f"nesting {group}: {count - left}/{count} parts placed")
+            progress(
+                (done + count - left) / max(total, 1),
+                f"nesting {group}: {count - left}/{count} parts placed",
+            )
+
     return on_round
 
 
@@ -395,10 +447,12 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
     for (material, thickness), items in sorted(groups.items()):
         group_start = time.perf_counter()
 
-        on_round = _reporter(progress, placed_parts, len(items), total,
-                             f"{material} {thickness:g} mm")
-        layout, box_plates = _nest_group(items, job, grow, cutting.nest_time, cutting.seed,
-                                         on_round)
+        on_round = _reporter(
+            progress, placed_parts, len(items), total, f"{material} {thickness:g} mm"
+        )
+        layout, box_plates = _nest_group(
+            items, job, grow, cutting.nest_time, cutting.seed, on_round
+        )
         boxes += box_plates
         placed_parts += len(items)
         area = sum(it.part.area for it in items)
@@ -406,16 +460,35 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
         lower_bound += bound
         for members in layout:
             used = sum(it.part.area for it, _ in members)
-            plates.append(Plate(index=len(plates) + 1, material=material, thickness=thickness,
-                                size=(cutting.plate_length, cutting.plate_width),
-                                placements=tuple(Placement(it.part.id, t) for it, t in members),
-                                utilisation=used / plate_area))
-        group_metrics.append({"material": material, "thickness_mm": thickness,
-                              "parts": len(items), "plates": len(layout),
-                              "plates_lower_bound": bound, "bounding_box_plates": box_plates,
-                              "time_s": round(time.perf_counter() - group_start, 3)})
-        log.info("nested %d parts of %s %g mm on %d plates (lower bound %d)", len(items),
-                 material, thickness, len(layout), bound)
+            plates.append(
+                Plate(
+                    index=len(plates) + 1,
+                    material=material,
+                    thickness=thickness,
+                    size=(cutting.plate_length, cutting.plate_width),
+                    placements=tuple(Placement(it.part.id, t) for it, t in members),
+                    utilisation=used / plate_area,
+                )
+            )
+        group_metrics.append(
+            {
+                "material": material,
+                "thickness_mm": thickness,
+                "parts": len(items),
+                "plates": len(layout),
+                "plates_lower_bound": bound,
+                "bounding_box_plates": box_plates,
+                "time_s": round(time.perf_counter() - group_start, 3),
+            }
+        )
+        log.info(
+            "nested %d parts of %s %g mm on %d plates (lower bound %d)",
+            len(items),
+            material,
+            thickness,
+            len(layout),
+            bound,
+        )
 
     by_id = {p.id: p for p in flat.parts}
     placed = [by_id[pl.part_id] for plate in plates for pl in plate.placements]
@@ -424,8 +497,9 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
         "plates_lower_bound": lower_bound,
         "bounding_box_plates": boxes,
         "utilisation_by_plate": {p.name: round(p.utilisation, 4) for p in plates},
-        "utilisation": (sum(p.area for p in placed) / (plate_area * len(plates))
-                        if plates else 0.0),
+        "utilisation": (
+            sum(p.area for p in placed) / (plate_area * len(plates)) if plates else 0.0
+        ),
         "parts_placed": len(placed),
         "parts_left_out": len(flat.parts) - len(placed),
         "cut_length_mm": float(sum(cut_length(p) for p in placed)),
@@ -438,12 +512,15 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
 
 def placed_polygon(part: FlatPart, transform: np.ndarray) -> Polygon:
     """The part's outline (with polygon holes) on the plate, as a shapely polygon."""
-    return Polygon(transform_points(transform, part.outline),
-                   [transform_points(transform, h) for h in part.holes])
+    return Polygon(
+        transform_points(transform, part.outline),
+        [transform_points(transform, h) for h in part.holes],
+    )
 
 
-def validate_nests(nests: Nests, flat: FlatParts, job: Job,
-                   tolerance: float = CHECK_TOLERANCE) -> list[str]:
+def validate_nests(
+    nests: Nests, flat: FlatParts, job: Job, tolerance: float = CHECK_TOLERANCE
+) -> list[str]:
     """Problems of a nest, as sentences (empty when it is sound).
 
     Checks: every part placed exactly once (parts with a ``part-too-large`` or
@@ -472,12 +549,17 @@ def validate_nests(nests: Nests, flat: FlatParts, job: Job,
                 continue
             t = np.asarray(pl.transform, dtype=float)
             r = t[:2, :2]
-            if not (np.allclose(r.T @ r, np.eye(2), atol=1e-9) and np.linalg.det(r) > 0
-                    and np.allclose(t[2], [0, 0, 1])):
+            if not (
+                np.allclose(r.T @ r, np.eye(2), atol=1e-9)
+                and np.linalg.det(r) > 0
+                and np.allclose(t[2], [0, 0, 1])
+            ):
                 errors.append(f"{plate.name}: {part.id} transform is not a rigid motion")
             if (part.material, float(part.thickness)) != (plate.material, float(plate.thickness)):
-                errors.append(f"{plate.name}: {part.id} is {part.material} {part.thickness:g} mm "
-                              f"on a {plate.material} {plate.thickness:g} mm plate")
+                errors.append(
+                    f"{plate.name}: {part.id} is {part.material} {part.thickness:g} mm "
+                    f"on a {plate.material} {plate.thickness:g} mm plate"
+                )
             polygon = placed_polygon(part, t)
             if not usable.contains(polygon):
                 errors.append(f"{plate.name}: {part.id} leaves the usable area")
@@ -487,13 +569,18 @@ def validate_nests(nests: Nests, flat: FlatParts, job: Job,
             continue
         tree = shapely.STRtree(polygons)
         limit = max(cutting.part_spacing - tolerance, 0.0)
-        left, right = tree.query(polygons, predicate="dwithin", distance=limit) if limit > 0 \
+        left, right = (
+            tree.query(polygons, predicate="dwithin", distance=limit)
+            if limit > 0
             else tree.query(polygons, predicate="intersects")
+        )
         for i, j in zip(left, right):
             if i >= j:
                 continue
             gap = polygons[i].distance(polygons[j])
             if polygons[i].intersection(polygons[j]).area > 0 or gap < limit:
-                errors.append(f"{plate.name}: {names[i]} and {names[j]} are {gap:.3f} mm apart "
-                              f"(spacing {cutting.part_spacing:g} mm)")
+                errors.append(
+                    f"{plate.name}: {names[i]} and {names[j]} are {gap:.3f} mm apart "
+                    f"(spacing {cutting.part_spacing:g} mm)"
+                )
     return errors

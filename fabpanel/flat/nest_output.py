@@ -32,13 +32,17 @@ def write_plate_dxf(plate: Plate, parts: dict[str, FlatPart], path: str | Path) 
     doc = new_document()
     msp = doc.modelspace()
     length, width = plate.size
-    msp.add_lwpolyline([(0, 0), (length, 0), (length, width), (0, width)], close=True,
-                       dxfattribs={"layer": "PLATE"})
+    msp.add_lwpolyline(
+        [(0, 0), (length, 0), (length, width), (0, width)],
+        close=True,
+        dxfattribs={"layer": "PLATE"},
+    )
     for placement in plate.placements:
         part = parts[placement.part_id]
         for line in etch_polylines(part):
-            msp.add_lwpolyline(transform_points(placement.transform, line).tolist(),
-                               dxfattribs={"layer": "ETCH"})
+            msp.add_lwpolyline(
+                transform_points(placement.transform, line).tolist(), dxfattribs={"layer": "ETCH"}
+            )
     for placement in plate.placements:
         add_part(msp, parts[placement.part_id], np.asarray(placement.transform), etch=False)
     return save(doc, path)
@@ -52,8 +56,9 @@ def _contour_path(contours: list[np.ndarray]) -> MplPath:
     return MplPath(vertices, codes)
 
 
-def write_plate_png(plate: Plate, parts: dict[str, FlatPart], path: str | Path,
-                    dpi: int = 80) -> Path:
+def write_plate_png(
+    plate: Plate, parts: dict[str, FlatPart], path: str | Path, dpi: int = 80
+) -> Path:
     """A preview of one plate: plate outline, parts filled (holes open) and labelled."""
     length, width = plate.size
     fig, ax = plt.subplots(figsize=(12, 12 * width / length + 0.6))
@@ -69,16 +74,23 @@ def write_plate_png(plate: Plate, parts: dict[str, FlatPart], path: str | Path,
             contours.append(transform_points(t, circle + hole.centre)[::-1])
         ax.add_patch(PathPatch(_contour_path(contours), fc="#9ecae1", ec="#08519c", lw=0.6))
         if len(part.bend_lines):
-            ax.add_collection(LineCollection(
-                [transform_points(t, line) for line in part.bend_lines], colors="#31a354",
-                linewidths=0.5))
-        centre = Polygon(outline).representative_point().coords[0]
-        ax.text(*centre, part.id, ha="center", va="center", fontsize=6)
+            ax.add_collection(
+                LineCollection(
+                    [transform_points(t, line) for line in part.bend_lines],
+                    colors="#31a354",
+                    linewidths=0.5,
+                )
+            )
+        centre = Polygon(outline).representative_point()
+        ax.text(centre.x, centre.y, part.id, ha="center", va="center", fontsize=6)
     ax.set_xlim(-20, length + 20)
     ax.set_ylim(-20, width + 20)
     ax.set_aspect("equal")
-    ax.set_title(f"{plate.name}: {plate.material} {plate.thickness:g} mm, "
-                 f"{len(plate.placements)} parts, {plate.utilisation:.0%} used", fontsize=9)
+    ax.set_title(
+        f"{plate.name}: {plate.material} {plate.thickness:g} mm, "
+        f"{len(plate.placements)} parts, {plate.utilisation:.0%} used",
+        fontsize=9,
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=dpi)
     plt.close(fig)

@@ -65,8 +65,11 @@ _GLYPHS: dict[str, str] = {
 
 
 def _parse(spec: str) -> tuple[np.ndarray, ...]:
-    return tuple(np.array([[float(v) for v in point.split()] for point in stroke.split(",")])
-                 for stroke in spec.split(";") if stroke.strip())
+    return tuple(
+        np.array([[float(v) for v in point.split()] for point in stroke.split(",")])
+        for stroke in spec.split(";")
+        if stroke.strip()
+    )
 
 
 _STROKES = {char: _parse(spec) for char, spec in _GLYPHS.items()}
@@ -80,8 +83,9 @@ def text_width(text: str, height: float) -> float:
     return max(len(text) * ADVANCE - (ADVANCE - 4.0), 0.0) * height / CAP
 
 
-def text_strokes(text: str, x: float, y: float, height: float, angle_deg: float = 0.0,
-                 align: str = "center") -> list[np.ndarray]:
+def text_strokes(
+    text: str, x: float, y: float, height: float, angle_deg: float = 0.0, align: str = "center"
+) -> list[np.ndarray]:
     """Single-stroke polylines of a text line.
 
     ``(x, y)`` is the insertion point, mm: the centre of the line for ``align="center"``, the
@@ -92,12 +96,18 @@ def text_strokes(text: str, x: float, y: float, height: float, angle_deg: float 
     unknown = {c for c in text.upper() if c not in _STROKES}
     if unknown:
         log.warning("stroke font has no glyph for %s; drawn as spaces", "".join(sorted(unknown)))
-    strokes = [glyph * scale + [i * ADVANCE * scale, 0.0]
-               for i, char in enumerate(text.upper()) for glyph in _STROKES.get(char, ())]
+    strokes = [
+        glyph * scale + [i * ADVANCE * scale, 0.0]
+        for i, char in enumerate(text.upper())
+        for glyph in _STROKES.get(char, ())
+    ]
     if not strokes:
         return []
-    shift = np.array([0.0, 0.0]) if align == "left" else \
-        np.array([text_width(text, height) / 2, height / 2])
+    shift = (
+        np.array([0.0, 0.0])
+        if align == "left"
+        else np.array([text_width(text, height) / 2, height / 2])
+    )
     angle = np.deg2rad(angle_deg)
     rotation = np.array([[np.cos(angle), np.sin(angle)], [-np.sin(angle), np.cos(angle)]])
     return [(stroke - shift) @ rotation + [x, y] for stroke in strokes]

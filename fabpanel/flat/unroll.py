@@ -14,6 +14,7 @@ import dataclasses
 import logging
 import os
 from collections import Counter
+from collections.abc import Sequence
 
 import numpy as np
 import shapely
@@ -51,8 +52,9 @@ def grid_outline(uv: np.ndarray) -> np.ndarray:
     return np.concatenate([side[:-1] for side in grid_sides(uv)])
 
 
-def place_labels(outline: np.ndarray, lines: list[str], angle: float | None = None
-                 ) -> tuple[tuple[str, float, float, float, float], ...]:
+def place_labels(
+    outline: np.ndarray, lines: list[str], angle: float | None = None
+) -> tuple[tuple[str, float, float, float, float], ...]:
     """Stack text lines inside a polygon at its pole of inaccessibility.
 
     outline : (n, 2) float, mm. ``angle`` (degrees) defaults to the outline's principal axis.
@@ -72,19 +74,25 @@ def place_labels(outline: np.ndarray, lines: list[str], angle: float | None = No
         angle = (angle + 90.0) % 180.0 - 90.0
     direction = np.array([np.cos(np.radians(angle)), np.sin(np.radians(angle))])
     span = 4.0 * np.sqrt(polygon.area) + 4 * depth
-    chord = LineString([np.array(pole.coords[0]) - span * direction,
-                        np.array(pole.coords[0]) + span * direction]).intersection(polygon)
+    chord = LineString(
+        [np.array(pole.coords[0]) - span * direction, np.array(pole.coords[0]) + span * direction]
+    ).intersection(polygon)
     pieces = getattr(chord, "geoms", [chord])
     available = min((g.length for g in pieces if g.distance(pole) < 1e-6), default=2 * depth)
     longest = max(len(t) for t in lines)
-    height = min(LABEL_HEIGHT[1], 1.4 * depth / (1.6 * len(lines)),
-                 0.8 * available / max(text_width("X" * longest, 1.0), 1e-9))
+    height = min(
+        LABEL_HEIGHT[1],
+        1.4 * depth / (1.6 * len(lines)),
+        0.8 * available / max(text_width("X" * longest, 1.0), 1e-9),
+    )
     height = max(height, LABEL_HEIGHT[0])
     normal = np.array([-direction[1], direction[0]])
     offsets = (np.arange(len(lines))[::-1] - (len(lines) - 1) / 2) * 1.6 * height
     centre = np.array(pole.coords[0])
-    return tuple((text, *(centre + off * normal).tolist(), float(height), float(angle))
-                 for text, off in zip(lines, offsets))
+    return tuple(
+        (text, *(centre + off * normal).tolist(), float(height), float(angle))
+        for text, off in zip(lines, offsets)
+    )
 
 
 def label_boxes(labels) -> shapely.Geometry:
@@ -121,8 +129,12 @@ def grid_point(grid: np.ndarray, u: float, v: float) -> np.ndarray:
     x, y = u * (a - 1), v * (b - 1)
     i, j = min(int(x), a - 2), min(int(y), b - 2)
     s, t = x - i, y - j
-    return ((1 - s) * (1 - t) * grid[i, j] + s * (1 - t) * grid[i + 1, j]
-            + s * t * grid[i + 1, j + 1] + (1 - s) * t * grid[i, j + 1])
+    return (
+        (1 - s) * (1 - t) * grid[i, j]
+        + s * (1 - t) * grid[i + 1, j]
+        + s * t * grid[i + 1, j + 1]
+        + (1 - s) * t * grid[i, j + 1]
+    )
 
 
 def unroll_sheet(part: Part) -> FlatPart:
@@ -142,13 +154,24 @@ def unroll_sheet(part: Part) -> FlatPart:
         bending = Bending("unknown", np.zeros((0, 2, 2)), np.zeros((0, 2)), False)
     labels = place_labels(outline, [part.id, part.panel_id, bending.instruction()], angle=0.0)
     bend_lines = lines_around_labels(bending.lines, labels)
-    holes = tuple(dataclasses.replace(h, centre=tuple(grid_point(uv, *h.centre)))
-                  for h in part.holes)
-    return FlatPart(id=part.id, kind=part.kind, panel_id=part.panel_id, material=part.material,
-                    thickness=part.thickness, outline=outline, round_holes=holes,
-                    bend_lines=bend_lines, labels=labels, max_strain=strain,
-                    forming=bending.instruction(),
-                    edge_lengths_flat=lengths_flat, edge_lengths_3d=lengths_3d)
+    holes = tuple(
+        dataclasses.replace(h, centre=tuple(grid_point(uv, *h.centre))) for h in part.holes
+    )
+    return FlatPart(
+        id=part.id,
+        kind=part.kind,
+        panel_id=part.panel_id,
+        material=part.material,
+        thickness=part.thickness,
+        outline=outline,
+        round_holes=holes,
+        bend_lines=bend_lines,
+        labels=labels,
+        max_strain=strain,
+        forming=bending.instruction(),
+        edge_lengths_flat=lengths_flat,
+        edge_lengths_3d=lengths_3d,
+    )
 
 
 def flat_plate(part: Part, face: str = "") -> FlatPart:
@@ -165,33 +188,48 @@ def flat_plate(part: Part, face: str = "") -> FlatPart:
     if polygon_area(outline) < 0:
         outline = outline[::-1].copy()
     labels = place_labels(outline, [part.id, part.panel_id] + ([face] if face else []))
-    return FlatPart(id=part.id, kind=part.kind, panel_id=part.panel_id, material=part.material,
-                    thickness=part.thickness, outline=outline, round_holes=tuple(part.holes),
-                    labels=labels, max_strain=0.0)
+    return FlatPart(
+        id=part.id,
+        kind=part.kind,
+        panel_id=part.panel_id,
+        material=part.material,
+        thickness=part.thickness,
+        outline=outline,
+        round_holes=tuple(part.holes),
+        labels=labels,
+        max_strain=0.0,
+    )
 
 
 def _lay_flat(part: Part, face: str = "") -> FlatPart:
     return unroll_sheet(part) if part.kind.startswith("sheet") else flat_plate(part, face)
 
 
-def plate_faces(parts: tuple[Part, ...]) -> list[str]:
+def plate_faces(parts: Sequence[Part]) -> list[str]:
     """Per part, which way a plate's drawn face looks: ``IN`` (into its panel: for a rib the
     other face is the joint face against the neighbour's rib), ``OUT``, or "" for sheets and
     plates whose panel has no sheet to tell its centre."""
-    centres = {}
+    centres: dict[str, np.ndarray] = {}
     for part in parts:
         if part.surface_grid is not None:
-            centres.setdefault(part.panel_id, np.asarray(part.surface_grid).reshape(-1, 3)
-                               .mean(axis=0))
+            centres.setdefault(
+                part.panel_id, np.asarray(part.surface_grid).reshape(-1, 3).mean(axis=0)
+            )
     faces = []
     for part in parts:
         if part.kind.startswith("sheet") or part.frame is None or part.panel_id not in centres:
             faces.append("")
             continue
         frame = np.asarray(part.frame, dtype=float)
-        faces.append("IN" if frame[:3, 2] @ (centres[part.panel_id] - frame[:3, 3]) > 0
-                     else "OUT")
+        faces.append("IN" if frame[:3, 2] @ (centres[part.panel_id] - frame[:3, 3]) > 0 else "OUT")
     return faces
+
+
+def _edge_length_error(part: FlatPart) -> float:
+    """Largest difference between an unrolled sheet's flat and 3D edge lengths, mm."""
+    if part.edge_lengths_flat is None or part.edge_lengths_3d is None:
+        raise ValueError(f"{part.id}: no edge lengths; not an unrolled sheet")
+    return float(np.abs(part.edge_lengths_flat - part.edge_lengths_3d).max())
 
 
 def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
@@ -209,28 +247,52 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
     workers = jobs or os.cpu_count() or 1
     if workers > 1 and len(light) > 8:
         with worker_pool(workers) as pool:
-            flats = list(pool.map(_lay_flat, light, plate_faces(light),
-                                  chunksize=max(1, len(light) // (4 * workers))))
+            flats = list(
+                pool.map(
+                    _lay_flat,
+                    light,
+                    plate_faces(light),
+                    chunksize=max(1, len(light) // (4 * workers)),
+                )
+            )
     else:
         flats = [_lay_flat(part, face) for part, face in zip(light, plate_faces(light))]
     smallest = job.cutting.min_plasma_hole
-    flats = [dataclasses.replace(
-        flat, round_holes=tuple(h for h in flat.round_holes
-                                if h.diameter >= smallest * flat.thickness),
-        drill_holes=tuple(h for h in flat.round_holes if h.diameter < smallest * flat.thickness))
-        for flat in flats]
+    flats = [
+        dataclasses.replace(
+            flat,
+            round_holes=tuple(
+                h for h in flat.round_holes if h.diameter >= smallest * flat.thickness
+            ),
+            drill_holes=tuple(
+                h for h in flat.round_holes if h.diameter < smallest * flat.thickness
+            ),
+        )
+        for flat in flats
+    ]
     for part, flat in zip(model.parts, flats):
         if flat.max_strain > tolerance:
-            issues.append(Issue("unroll-strain", f"{part.id} unrolls with strain "
-                                f"{flat.max_strain:.2e} > {tolerance:.1e}: the cut sheet will not "
-                                "fit the surface without stretching", part.id))
+            issues.append(
+                Issue(
+                    "unroll-strain",
+                    f"{part.id} unrolls with strain "
+                    f"{flat.max_strain:.2e} > {tolerance:.1e}: the cut sheet will not "
+                    "fit the surface without stretching",
+                    part.id,
+                )
+            )
         if not shapely.is_valid(Polygon(flat.outline)):
-            issues.append(Issue("invalid-outline", f"{part.id}: flat outline intersects itself",
-                                part.id, "error"))
+            issues.append(
+                Issue(
+                    "invalid-outline",
+                    f"{part.id}: flat outline intersects itself",
+                    part.id,
+                    "error",
+                )
+            )
         parts.append(flat)
     sheets = [p for p in parts if p.edge_lengths_flat is not None]
-    edge_error = max((float(np.abs(p.edge_lengths_flat - p.edge_lengths_3d).max())
-                      for p in sheets), default=0.0)
+    edge_error = max((_edge_length_error(p) for p in sheets), default=0.0)
     metrics = {
         "parts": len(parts),
         "count_by_kind": dict(Counter(p.kind for p in parts)),
@@ -241,8 +303,12 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
         "drill_holes": int(sum(len(p.drill_holes) for p in parts)),
         "area_mm2": float(sum(p.area for p in parts)),
     }
-    log.info("cut: %d flat parts, max strain %.2e, edge length error %.3f mm", len(parts),
-             metrics["max_strain"], edge_error)
+    log.info(
+        "cut: %d flat parts, max strain %.2e, edge length error %.3f mm",
+        len(parts),
+        metrics["max_strain"],
+        edge_error,
+    )
     return FlatParts(parts=tuple(parts), metrics=metrics, issues=tuple(issues))
 
 

@@ -46,17 +46,22 @@ def _arc_bulge(points: np.ndarray, tolerance: float) -> float | None:
         return None
     # circumcentre of a, m, b relative to a
     sq_ab, sq_am = ab @ ab, am @ am
-    centre = a + np.array([am[1] * sq_ab - ab[1] * sq_am, ab[0] * sq_am - am[0] * sq_ab]) \
-        / (2 * cross)
+    centre = a + np.array([am[1] * sq_ab - ab[1] * sq_am, ab[0] * sq_am - am[0] * sq_ab]) / (
+        2 * cross
+    )
     radius = np.hypot(*(a - centre))
     rel = points - centre
     if np.abs(np.hypot(rel[:, 0], rel[:, 1]) - radius).max() > tolerance:
         return None
-    turns = np.arctan2(rel[:-1, 0] * rel[1:, 1] - rel[:-1, 1] * rel[1:, 0],
-                       np.einsum("ij,ij->i", rel[:-1], rel[1:]))
+    turns = np.arctan2(
+        rel[:-1, 0] * rel[1:, 1] - rel[:-1, 1] * rel[1:, 0],
+        np.einsum("ij,ij->i", rel[:-1], rel[1:]),
+    )
     chords = np.diff(points, axis=0)
-    bends = np.arctan2(chords[:-1, 0] * chords[1:, 1] - chords[:-1, 1] * chords[1:, 0],
-                       np.einsum("ij,ij->i", chords[:-1], chords[1:]))
+    bends = np.arctan2(
+        chords[:-1, 0] * chords[1:, 1] - chords[:-1, 1] * chords[1:, 0],
+        np.einsum("ij,ij->i", chords[:-1], chords[1:]),
+    )
     if len(bends) and np.abs(bends).max() > MAX_ARC_TURN:
         return None
     if not (np.all(turns > 0) or np.all(turns < 0)):
@@ -66,7 +71,7 @@ def _arc_bulge(points: np.ndarray, tolerance: float) -> float | None:
         return None
     middles = (points[:-1] + points[1:]) / 2 - centre
     chords = np.linalg.norm(np.diff(points, axis=0), axis=1)
-    sagitta = chords ** 2 / (8 * radius)
+    sagitta = chords**2 / (8 * radius)
     if np.any(np.abs(np.hypot(middles[:, 0], middles[:, 1]) - radius) > tolerance + sagitta):
         return None
     return float(np.tan(sweep / 4))
@@ -82,23 +87,23 @@ def _piece(points: np.ndarray, tolerance: float) -> float | None:
 def _longest_run(points: np.ndarray, start: int, tolerance: float) -> tuple[int, float]:
     """(end index, bulge) of the longest run from ``start`` one line or arc holds."""
     last = len(points) - 1
-    good, bulge = start + 1, 0.0            # one segment always fits as a line
+    good, bulge = start + 1, 0.0  # one segment always fits as a line
     bad = None
     step = 1
     while good < last and bad is None:
         trial = min(start + step + 1, last)
         step *= 2
-        fitted = _piece(points[start:trial + 1], tolerance)
+        fitted = _piece(points[start : trial + 1], tolerance)
         if fitted is not None:
             good, bulge = trial, fitted
         elif trial - start >= MIN_ARC_SEGMENTS:
-            bad = trial                     # shorter runs may fail only for want of an arc
+            bad = trial  # shorter runs may fail only for want of an arc
         if trial == last:
             break
     if bad is not None:
         while bad - good > 1:
             trial = (good + bad) // 2
-            fitted = _piece(points[start:trial + 1], tolerance)
+            fitted = _piece(points[start : trial + 1], tolerance)
             if fitted is None:
                 bad = trial
             else:
@@ -106,8 +111,9 @@ def _longest_run(points: np.ndarray, start: int, tolerance: float) -> tuple[int,
     return good, bulge
 
 
-def fit_arcs(points: np.ndarray, closed: bool = True, tolerance: float = ARC_TOLERANCE
-             ) -> tuple[np.ndarray, np.ndarray]:
+def fit_arcs(
+    points: np.ndarray, closed: bool = True, tolerance: float = ARC_TOLERANCE
+) -> tuple[np.ndarray, np.ndarray]:
     """Lines and arcs through a polyline.
 
     points : (n, 2) float, mm (a closed contour without its first point repeated).
@@ -123,8 +129,12 @@ def fit_arcs(points: np.ndarray, closed: bool = True, tolerance: float = ARC_TOL
     # from the end of the first piece (where the greedy walk found a real break) and keep the
     # fit with fewer pieces
     before, after = points - np.roll(points, 1, axis=0), np.roll(points, -1, axis=0) - points
-    turning = np.abs(np.arctan2(before[:, 0] * after[:, 1] - before[:, 1] * after[:, 0],
-                                np.einsum("ij,ij->i", before, after)))
+    turning = np.abs(
+        np.arctan2(
+            before[:, 0] * after[:, 1] - before[:, 1] * after[:, 0],
+            np.einsum("ij,ij->i", before, after),
+        )
+    )
     first = int(np.argmax(turning))
     best = _fit_from(np.roll(points, -first, axis=0), True, tolerance)
     second = (first + int(best[2][1])) % len(points) if len(best[2]) > 1 else first
@@ -133,8 +143,9 @@ def fit_arcs(points: np.ndarray, closed: bool = True, tolerance: float = ARC_TOL
     return vertices, bulges
 
 
-def _fit_from(points: np.ndarray, closed: bool, tolerance: float
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _fit_from(
+    points: np.ndarray, closed: bool, tolerance: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Greedy fit from ``points[0]``; also returns the indices of the vertices kept."""
     if closed:
         points = np.concatenate([points, points[:1]])
@@ -153,8 +164,9 @@ def _fit_from(points: np.ndarray, closed: bool, tolerance: float
     return np.array(vertices), np.array(bulges), np.array(kept)
 
 
-def bulge_polyline(vertices: np.ndarray, bulges: np.ndarray, closed: bool = True,
-                   chord_tolerance: float = 0.005) -> np.ndarray:
+def bulge_polyline(
+    vertices: np.ndarray, bulges: np.ndarray, closed: bool = True, chord_tolerance: float = 0.005
+) -> np.ndarray:
     """(k, 2) float: lines and arcs back to a dense polyline (arcs within ``chord_tolerance``)."""
     count = len(vertices)
     out = []
@@ -170,8 +182,9 @@ def bulge_polyline(vertices: np.ndarray, bulges: np.ndarray, closed: bool = True
         # centre: from the chord's middle, along its left normal for a counter-clockwise arc
         normal = np.array([-chord[1], chord[0]]) / length
         centre = (a + b) / 2 + normal * radius * np.cos(sweep / 2) * np.sign(sweep)
-        steps = max(int(np.ceil(abs(sweep) / (2 * np.arccos(
-            max(1 - chord_tolerance / radius, -1.0))))), 1)
+        steps = max(
+            int(np.ceil(abs(sweep) / (2 * np.arccos(max(1 - chord_tolerance / radius, -1.0))))), 1
+        )
         start = np.arctan2(*(a - centre)[::-1])
         angles = start + sweep * np.arange(1, steps) / steps
         out.append(centre + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1))

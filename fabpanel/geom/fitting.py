@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 
-def bestfit_planes(points: np.ndarray, weights: np.ndarray | None = None
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def bestfit_planes(
+    points: np.ndarray, weights: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Best-fitting plane of each point set (total least squares, optionally weighted).
 
     points : (b, n, 3) float; weights : (n,) float, the same for every set (default all 1).

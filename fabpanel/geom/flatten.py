@@ -35,8 +35,12 @@ _MAX_ITERATIONS = 60
 def grid_edges(a: int, b: int) -> np.ndarray:
     """(e, 2) int: the grid lines' edges in both directions and both diagonals of every cell."""
     idx = np.arange(a * b).reshape(a, b)
-    pairs = [(idx[:-1, :], idx[1:, :]), (idx[:, :-1], idx[:, 1:]),
-             (idx[:-1, :-1], idx[1:, 1:]), (idx[1:, :-1], idx[:-1, 1:])]
+    pairs = [
+        (idx[:-1, :], idx[1:, :]),
+        (idx[:, :-1], idx[:, 1:]),
+        (idx[:-1, :-1], idx[1:, 1:]),
+        (idx[1:, :-1], idx[:-1, 1:]),
+    ]
     return np.concatenate([np.stack([p.ravel(), q.ravel()], 1) for p, q in pairs])
 
 
@@ -84,8 +88,9 @@ def _edge_residuals(uv: np.ndarray, edges: np.ndarray, lengths: np.ndarray) -> n
     return np.linalg.norm(uv[edges[:, 1]] - uv[edges[:, 0]], axis=1) / lengths - 1.0
 
 
-def _gauss_newton(uv: np.ndarray, edges: np.ndarray, lengths: np.ndarray,
-                  fixed: np.ndarray) -> np.ndarray:
+def _gauss_newton(
+    uv: np.ndarray, edges: np.ndarray, lengths: np.ndarray, fixed: np.ndarray
+) -> np.ndarray:
     """Damped Gauss-Newton on relative edge-length errors; ``fixed`` are flat coordinate indices
     (into ``uv.ravel()``) held constant to remove the rigid motion."""
     n = len(uv)
@@ -103,24 +108,28 @@ def _gauss_newton(uv: np.ndarray, edges: np.ndarray, lengths: np.ndarray,
             break
         g = d / (dist * lengths)[:, None]  # d r / d x_b ; d r / d x_a = -g
         rows = np.repeat(np.arange(e), 4)
-        cols = np.stack([2 * edges[:, 0], 2 * edges[:, 0] + 1,
-                         2 * edges[:, 1], 2 * edges[:, 1] + 1], 1).ravel()
+        cols = np.stack(
+            [2 * edges[:, 0], 2 * edges[:, 0] + 1, 2 * edges[:, 1], 2 * edges[:, 1] + 1], 1
+        ).ravel()
         vals = np.stack([-g[:, 0], -g[:, 1], g[:, 0], g[:, 1]], 1).ravel()
         jac = sp.csr_matrix((vals, (rows, cols)), shape=(e, 2 * n))[:, free].tocsc()
         normal = (jac.T @ jac).tocsc()
         grad = jac.T @ r
         scale = normal.diagonal().mean()
         while True:
-            step = spla.spsolve(normal + damping * scale * sp.identity(len(free), format="csc"),
-                                -grad)
+            step = spla.spsolve(
+                normal + damping * scale * sp.identity(len(free), format="csc"), -grad
+            )
             trial = x.copy()
             trial[free] += step
             trial_cost = np.sum(_edge_residuals(trial.reshape(n, 2), edges, lengths) ** 2)
             if trial_cost <= cost or damping > 1e6:
                 break
             damping *= 10.0
-        converged = abs(cost - trial_cost) <= 1e-16 * max(cost, 1e-300) or \
-            np.abs(step).max() < 1e-12 * scale ** -0.5
+        converged = (
+            abs(cost - trial_cost) <= 1e-16 * max(cost, 1e-300)
+            or np.abs(step).max() < 1e-12 * scale**-0.5
+        )
         x, cost = trial, trial_cost
         damping = max(damping / 10.0, 1e-12)
         if converged:
@@ -152,8 +161,9 @@ def flatten_grid(grid: np.ndarray) -> tuple[np.ndarray, float]:
     lengths = np.linalg.norm(points[edges[:, 1]] - points[edges[:, 0]], axis=1)
     if np.any(lengths <= 0):
         raise ValueError("flatten_grid: the grid has coincident neighbouring samples")
-    uv = _gauss_newton(uv, edges, lengths, np.array([2 * corner0, 2 * corner0 + 1,
-                                                     2 * corner1 + 1]))
+    uv = _gauss_newton(
+        uv, edges, lengths, np.array([2 * corner0, 2 * corner0 + 1, 2 * corner1 + 1])
+    )
     uv = _pin_rigid_motion(uv, corner0, corner1)
     strain = float(np.abs(_edge_residuals(uv, edges, lengths)).max())
     log.debug("flattened %dx%d grid, strain %.3g", a, b, strain)

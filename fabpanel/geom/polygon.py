@@ -19,8 +19,9 @@ def polyline_length(points: np.ndarray, closed: bool = False) -> float:
     return float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())
 
 
-def point_segment_distances(points: np.ndarray, starts: np.ndarray, ends: np.ndarray,
-                            chunk: int = 2048) -> np.ndarray:
+def point_segment_distances(
+    points: np.ndarray, starts: np.ndarray, ends: np.ndarray, chunk: int = 2048
+) -> np.ndarray:
     """Distance of every point to the nearest of a set of segments, any dimension.
 
     points : (n, d); starts, ends : (s, d). Returns (n,). Chunked so memory stays O(chunk * s).
@@ -30,11 +31,11 @@ def point_segment_distances(points: np.ndarray, starts: np.ndarray, ends: np.nda
     length2 = np.maximum(np.einsum("sd,sd->s", direction, direction), 1e-300)
     best = np.empty(len(points))
     for first in range(0, len(points), chunk):
-        block = points[first:first + chunk]
+        block = points[first : first + chunk]
         rel = block[:, None, :] - starts[None, :, :]
         t = np.clip(np.einsum("nsd,sd->ns", rel, direction) / length2, 0.0, 1.0)
         foot = starts[None] + t[..., None] * direction[None]
-        best[first:first + chunk] = np.linalg.norm(block[:, None, :] - foot, axis=2).min(axis=1)
+        best[first : first + chunk] = np.linalg.norm(block[:, None, :] - foot, axis=2).min(axis=1)
     return best
 
 
@@ -42,8 +43,9 @@ def point_segment_distances(points: np.ndarray, starts: np.ndarray, ends: np.nda
 MAX_PAIRS = 4_000_000
 
 
-def closest_on_polylines(points: np.ndarray, polyline: np.ndarray,
-                         closed: bool = True) -> np.ndarray:
+def closest_on_polylines(
+    points: np.ndarray, polyline: np.ndarray, closed: bool = True
+) -> np.ndarray:
     """Closest point on a polyline for every point (any dimension), vectorised.
 
     points : (p, d) float; polyline : (k, d) float (first point not repeated when ``closed``).
@@ -60,11 +62,12 @@ def closest_on_polylines(points: np.ndarray, polyline: np.ndarray,
     out = np.empty_like(points)
     chunk = max(1, MAX_PAIRS // max(len(starts), 1))
     for first in range(0, len(points), chunk):
-        block = points[first:first + chunk]
+        block = points[first : first + chunk]
         rel = block[:, None, :] - starts[None]
         t = np.clip(np.einsum("psd,sd->ps", rel, direction) / length2, 0.0, 1.0)
         foot = starts[None] + t[..., None] * direction[None]
-        best = np.argmin(np.einsum("psd,psd->ps", block[:, None] - foot, block[:, None] - foot),
-                         axis=1)
-        out[first:first + chunk] = foot[np.arange(len(block)), best]
+        best = np.argmin(
+            np.einsum("psd,psd->ps", block[:, None] - foot, block[:, None] - foot), axis=1
+        )
+        out[first : first + chunk] = foot[np.arange(len(block)), best]
     return out

@@ -15,8 +15,8 @@ def bilinear_grid(corners: np.ndarray, k: int) -> np.ndarray:
     samples.
     """
     s = np.linspace(0.0, 1.0, k)
-    a = s[:, None, None]          # along side 0 (c0 -> c1)
-    b = s[None, :, None]          # along side 3 reversed (c0 -> c3)
+    a = s[:, None, None]  # along side 0 (c0 -> c1)
+    b = s[None, :, None]  # along side 3 reversed (c0 -> c3)
     c0, c1, c2, c3 = (corners[:, i, None, None, :] for i in range(4))
     return (1 - a) * (1 - b) * c0 + a * (1 - b) * c1 + a * b * c2 + (1 - a) * b * c3
 
@@ -59,16 +59,19 @@ def angle_defects(grid: np.ndarray) -> np.ndarray:
         p = pts[:, tris[:, corner]]
         q = pts[:, tris[:, (corner + 1) % 3]] - p
         r = pts[:, tris[:, (corner + 2) % 3]] - p
-        cos = np.einsum("mti,mti->mt", q, r) / (np.linalg.norm(q, axis=-1)
-                                                  * np.linalg.norm(r, axis=-1))
+        cos = np.einsum("mti,mti->mt", q, r) / (
+            np.linalg.norm(q, axis=-1) * np.linalg.norm(r, axis=-1)
+        )
         angles = np.arccos(np.clip(cos, -1.0, 1.0))
-        np.add.at(sums, (slice(None), tris[:, corner]), angles)
+        # numpy's stubs for ufunc.at omit the documented tuple-with-slices index
+        np.add.at(sums, (slice(None), tris[:, corner]), angles)  # type: ignore[arg-type]
     defects = 2 * np.pi - sums.reshape(m, a, b)
     return defects[:, 1:-1, 1:-1]
 
 
-def coons_patch(side0: np.ndarray, side1: np.ndarray, side2: np.ndarray,
-                side3: np.ndarray) -> np.ndarray:
+def coons_patch(
+    side0: np.ndarray, side1: np.ndarray, side2: np.ndarray, side3: np.ndarray
+) -> np.ndarray:
     """Bilinearly blended Coons patches (Coons 1967) through four boundary polylines.
 
     side0 : (..., a, 3) from c0 to c1; side1 : (..., b, 3) from c1 to c2;
@@ -78,10 +81,10 @@ def coons_patch(side0: np.ndarray, side1: np.ndarray, side2: np.ndarray,
     the patch's boundary rows are exactly the given sides.
     """
     a, b = side0.shape[-2], side1.shape[-2]
-    bottom = side0                                 # j = 0, i from c0 to c1
-    top = side2[..., ::-1, :]                      # j = b-1, i from c3 to c2
-    left = side3[..., ::-1, :]                     # i = 0, j from c0 to c3
-    right = side1                                  # i = a-1, j from c1 to c2
+    bottom = side0  # j = 0, i from c0 to c1
+    top = side2[..., ::-1, :]  # j = b-1, i from c3 to c2
+    left = side3[..., ::-1, :]  # i = 0, j from c0 to c3
+    right = side1  # i = a-1, j from c1 to c2
     s = np.linspace(0.0, 1.0, a)[:, None, None]
     t = np.linspace(0.0, 1.0, b)[None, :, None]
     ruled_s = (1 - t) * bottom[..., :, None, :] + t * top[..., :, None, :]
@@ -105,13 +108,17 @@ def resample_polylines(polylines: np.ndarray, count: int) -> np.ndarray:
     cumulative = np.concatenate([np.zeros((len(polylines), 1)), np.cumsum(steps, axis=1)], axis=1)
     targets = np.linspace(0.0, 1.0, count)[None, :] * cumulative[:, -1:]
     # index of the segment holding each target, then linear interpolation inside it
-    seg = np.clip(np.array([np.searchsorted(c, t, side="right") - 1
-                            for c, t in zip(cumulative, targets)]), 0, polylines.shape[1] - 2)
+    seg = np.clip(
+        np.array([np.searchsorted(c, t, side="right") - 1 for c, t in zip(cumulative, targets)]),
+        0,
+        polylines.shape[1] - 2,
+    )
     rows = np.arange(len(polylines))[:, None]
     start, length = cumulative[rows, seg], steps[rows, seg]
     frac = np.where(length > 0, (targets - start) / np.where(length > 0, length, 1.0), 0.0)
-    points = polylines[rows, seg] + frac[..., None] * (polylines[rows, seg + 1]
-                                                       - polylines[rows, seg])
+    points = polylines[rows, seg] + frac[..., None] * (
+        polylines[rows, seg + 1] - polylines[rows, seg]
+    )
     points[:, 0], points[:, -1] = polylines[:, 0], polylines[:, -1]
     return points
 

@@ -9,5 +9,11 @@ from .build import build
 from .export import read_step_parts, write_glb, write_panel_steps, write_step_assembly
 from .rhino import write_3dm
 
-__all__ = ["build", "read_step_parts", "write_3dm", "write_glb", "write_panel_steps",
-           "write_step_assembly"]
+__all__ = [
+    "build",
+    "read_step_parts",
+    "write_3dm",
+    "write_glb",
+    "write_panel_steps",
+    "write_step_assembly",
+]

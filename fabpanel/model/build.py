@@ -5,6 +5,13 @@ The parts of one panel are made by :func:`fabpanel.model.panel.build_panel` in w
 runs the checks that need several panels: back-to-back ribs in contact, bolt holes of a joint
 coaxial, neighbouring sheet edges identical, and the clash check (:mod:`fabpanel.model.clash`).
 
+A panel that cannot be built (OCCT fails on one of its parts, a degenerate developed grid)
+does not stop the stage: it becomes a ``panel-not-built`` error issue naming the panel, the part
+and the reason, its parts are left out of the model, and the checks that need two panels skip
+the joints and corners it shares. Only when no panel at all can be built does the stage raise.
+A worker process that dies (``BrokenProcessPool``), Ctrl-C and ``MemoryError`` are not a bad
+panel and propagate.
+
 Build-up along the outward normal (offsets in mm, ``t``: top sheet, ``h``: rib height, ``b``:
 bottom sheet; ``design_face = "top-outer"``)::
 
@@ -25,14 +32,16 @@ from __future__ import annotations
 import logging
 import os
 import time
-from collections.abc import Callable
+import traceback
+from collections.abc import Callable, Iterator
 from concurrent.futures import as_completed
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
 import numpy as np
 
 from ..data import DevelopedPanels, Model, Part
-from ..errors import Issue
+from ..errors import Issue, KernelError
 from ..job import Job
 from ..parallel import worker_pool
 from ..tolerances import TOLERANCES
@@ -64,8 +73,12 @@ def buildup_offsets(job: Job) -> dict[str, float]:
 # --------------------------------------------------------------------------------------------
 # public stage
 # --------------------------------------------------------------------------------------------
-def build(developed: DevelopedPanels, job: Job, jobs: int | None = None,
-          progress: Callable[[int], None] | None = None) -> Model:
+def build(
+    developed: DevelopedPanels,
+    job: Job,
+    jobs: int | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> Model:
     """Stage 3: the steel parts of every panel (:class:`~fabpanel.data.Model`).
 
     developed : the panels' sample grids, normals and rib planes.
@@ -73,8 +86,11 @@ def build(developed: DevelopedPanels, job: Job, jobs: int | None = None,
     jobs : worker processes (default ``os.cpu_count()``); 1 builds inline.
     progress : called with 1 after each finished panel.
 
-    Raises :class:`~fabpanel.errors.KernelError` naming the part when OCCT fails; parts that miss
-    a tolerance (sheet fit, rib planarity, rib contact) become ``Model.issues``.
+    A panel that cannot be built becomes a ``panel-not-built`` error in ``Model.issues`` (and
+    ``metrics["not_built"]``), the others are built and checked; parts that miss a tolerance
+    (sheet fit, rib planarity, rib contact) become ``Model.issues`` too. Raises
+    :class:`~fabpanel.errors.KernelError` when no panel at all could be built, and lets
+    ``BrokenProcessPool`` (a worker died), ``MemoryError`` and ``KeyboardInterrupt`` through.
     """
     started = time.perf_counter()
     sw = job.sandwich
@@ -89,88 +105,194 @@ def build(developed: DevelopedPanels, job: Job, jobs: int | None = None,
         "stiffener_offset": float(sw.stiffener_offset),
         "slide_limit": TOLERANCES.trim_slide * sw.total_depth,
         "fibre": job.cutting.neutral_fibre,
-        "bolt": {"diameter": float(bolts.diameter), "spacing": float(bolts.spacing),
-                 "edge_distance": float(bolts.edge_distance), "access_sheet": bolts.access_sheet,
-                 "access_diameter": float(bolts.access_diameter)},
+        "bolt": {
+            "diameter": float(bolts.diameter),
+            "spacing": float(bolts.spacing),
+            "edge_distance": float(bolts.edge_distance),
+            "access_sheet": bolts.access_sheet,
+            "access_diameter": float(bolts.access_diameter),
+        },
     }
     m = len(developed.panel_ids)
     neighbours = developed.layout.side_neighbours
     payloads = [
-        {"panel_id": developed.panel_ids[p], "samples": np.asarray(developed.samples[p], float),
-         "normals": np.asarray(developed.normals[p], float),
-         "planes": np.asarray(developed.side_planes[p], float),
-         "interior": neighbours[p] >= 0, **settings}
+        {
+            "panel_id": developed.panel_ids[p],
+            "samples": np.asarray(developed.samples[p], float),
+            "normals": np.asarray(developed.normals[p], float),
+            "planes": np.asarray(developed.side_planes[p], float),
+            "interior": neighbours[p] >= 0,
+            **settings,
+        }
         for p in range(m)
     ]
     workers = max(1, min(jobs or os.cpu_count() or 1, m))
     results: list[dict[str, Any] | None] = [None] * m
     if workers == 1:
         for p, payload in enumerate(payloads):
-            results[p] = build_panel(payload)
+            results[p] = _build_or_failure(payload)
             if progress:
                 progress(1)
     else:
         with worker_pool(workers) as pool:
-            futures = {pool.submit(build_panel, payload): p for p, payload in enumerate(payloads)}
+            futures = {
+                pool.submit(_build_or_failure, payload): p for p, payload in enumerate(payloads)
+            }
             for future in as_completed(futures):
-                results[futures[future]] = future.result()
+                p = futures[future]
+                try:
+                    results[p] = future.result()
+                except (BrokenProcessPool, MemoryError):
+                    raise  # a worker died or memory ran out: stop the run
+                except Exception as err:  # noqa: BLE001 - e.g. a result that did not unpickle
+                    results[p] = _failure(developed.panel_ids[p], developed.panel_ids[p], err)
                 if progress:
                     progress(1)
 
+    # every panel was waited for: each result is a panel's parts or its failure
+    done = [r for r in results if r is not None and "failure" not in r]
+    failed = [r for r in results if r is not None and "failure" in r]
+    for result in failed:
+        log.error("panel %s not built: %s", result["panel_id"], result["failure"]["reason"])
+        log.debug("panel %s: %s", result["panel_id"], result["failure"]["traceback"])
+    if failed and not done:
+        first = failed[0]
+        raise KernelError(
+            f"no panel could be built; {first['panel_id']}: {_failure_message(first)}"
+        )
     material, density = job.material.name, float(job.material.density)
     parts: list[Part] = []
-    done = [result for result in results if result is not None]  # every panel was waited for
     for result in done:
         for record in result["parts"]:
-            parts.append(Part(id=record["id"], kind=record["kind"], panel_id=result["panel_id"],
-                              material=material, thickness=record["thickness"],
-                              volume=record["volume"], area=record["area"],
-                              mass=record["volume"] * density, brep=record["brep"],
-                              surface_grid=record.get("surface_grid"),
-                              outline=record.get("outline"), frame=record.get("frame"),
-                              holes=tuple(record.get("holes", ()))))
+            parts.append(
+                Part(
+                    id=record["id"],
+                    kind=record["kind"],
+                    panel_id=result["panel_id"],
+                    material=material,
+                    thickness=record["thickness"],
+                    volume=record["volume"],
+                    area=record["area"],
+                    mass=record["volume"] * density,
+                    brep=record["brep"],
+                    surface_grid=record.get("surface_grid"),
+                    outline=record.get("outline"),
+                    frame=record.get("frame"),
+                    holes=tuple(record.get("holes", ())),
+                )
+            )
     metrics, issues = _model_metrics(developed, parts, done, time.perf_counter() - started)
-    log.info("built %d parts of %d panels in %.1f s", len(parts), m, metrics["seconds"])
+    metrics["panels_built"] = len(done)
+    metrics["panels_not_built"] = len(failed)
+    metrics["not_built"] = {r["panel_id"]: _failure_message(r) for r in failed}
+    issues = [
+        Issue(
+            "panel-not-built",
+            f"panel {r['panel_id']} not built: "
+            f"{_failure_message(r)}; its parts are missing from every output",
+            r["panel_id"],
+            "error",
+        )
+        for r in failed
+    ] + issues
+    log.info(
+        "built %d parts of %d panels in %.1f s%s",
+        len(parts),
+        len(done),
+        metrics["seconds"],
+        f" ({len(failed)} panels not built)" if failed else "",
+    )
     return Model(parts=tuple(parts), developed=developed, metrics=metrics, issues=tuple(issues))
+
+
+def _build_or_failure(payload: dict[str, Any]) -> dict[str, Any]:
+    """:func:`build_panel`, or when it raises a record ``{"panel_id", "failure"}`` naming the
+    part and the reason: plain data, so it crosses the process boundary whatever the exception
+    (OCCT's own exceptions do not always pickle). Runs in the worker processes."""
+    where = [payload["panel_id"]]
+    try:
+        return build_panel(payload, where)
+    except MemoryError:
+        raise
+    except Exception as err:  # noqa: BLE001 - any failure of one panel is that panel's issue
+        return _failure(payload["panel_id"], where[-1], err)
+
+
+def _failure(panel_id: str, part: str, err: BaseException) -> dict[str, Any]:
+    reason = str(err).strip() or "no message"
+    if not isinstance(err, KernelError):
+        reason = f"{type(err).__name__}: {reason}"
+    return {
+        "panel_id": panel_id,
+        "failure": {
+            "part": part,
+            "reason": reason,
+            "traceback": "".join(traceback.format_exception(err)),
+        },
+    }
+
+
+def _failure_message(result: dict[str, Any]) -> str:
+    """``part P012-BOT: <reason>``: the part being built when the panel failed, and why."""
+    failure = result["failure"]
+    if failure["part"] == result["panel_id"]:
+        return failure["reason"]
+    return f"part {failure['part']}: {failure['reason']}"
 
 
 # --------------------------------------------------------------------------------------------
 # metrics
 # --------------------------------------------------------------------------------------------
-def _model_metrics(developed: DevelopedPanels, parts: list[Part], results: list,
-                   seconds: float) -> tuple[dict, list[Issue]]:
+def _model_metrics(
+    developed: DevelopedPanels, parts: list[Part], results: list[dict[str, Any]], seconds: float
+) -> tuple[dict[str, Any], list[Issue]]:
+    """Measures and issues of the built panels (``results``: :func:`build_panel`'s records of
+    the panels that were built; joints and corners with a panel not built are skipped)."""
     tol = TOLERANCES
     issues: list[Issue] = []
     counts: dict[str, int] = {}
     for part in parts:
         counts[part.kind] = counts.get(part.kind, 0) + 1
-    per_panel, fit, planarity, slide = {}, [0.0], [0.0], [0.0]
+    per_panel: dict[str, Any] = {}
+    fit, planarity, slide = [0.0], [0.0], [0.0]
     for result in results:
         pid, meas = result["panel_id"], result["measures"]
         per_panel[pid] = _jsonable(meas)
         fit.append(meas["sheet_fit_error_mm"])
         slide.append(meas["sheet_trim_slide_mm"])
         if meas["sheet_fit_error_mm"] > tol.sheet_fit:
-            issues.append(Issue("sheet-fit", f"B-spline sheet faces miss the trimmed developed "
-                                f"surface by {meas['sheet_fit_error_mm']:.3f} mm "
-                                f"(> {tol.sheet_fit} mm)", pid))
+            issues.append(
+                Issue(
+                    "sheet-fit",
+                    f"B-spline sheet faces miss the trimmed developed "
+                    f"surface by {meas['sheet_fit_error_mm']:.3f} mm "
+                    f"(> {tol.sheet_fit} mm)",
+                    pid,
+                )
+            )
         for part_id, value in meas.get("plate_planarity_mm", {}).items():
             planarity.append(value)
             if value > tol.rib_planarity:
-                issues.append(Issue("plate-not-planar", f"plate faces deviate {value:.3f} mm "
-                                    f"from flat (> {tol.rib_planarity} mm)", part_id))
+                issues.append(
+                    Issue(
+                        "plate-not-planar",
+                        f"plate faces deviate {value:.3f} mm from flat (> {tol.rib_planarity} mm)",
+                        part_id,
+                    )
+                )
         for code, part_id, message, *severity in result["findings"]:
             issues.append(Issue(code, message, part_id, *severity))
         if not meas["valid"]:
-            issues.append(Issue("invalid-solid", "a solid of this panel is not valid in OCCT",
-                                pid, "error"))
-    gap = _rib_contact_gap(developed, parts, issues)
+            issues.append(
+                Issue("invalid-solid", "a solid of this panel is not valid in OCCT", pid, "error")
+            )
+    built = {result["panel_id"] for result in results}
+    gap = _rib_contact_gap(developed, parts, built, issues)
     coaxial = _bolt_coaxiality(developed, results, issues)
     mismatch = _edge_mismatch(developed, results)
     clashes, clash_measures = _clash_check(developed, results)
     for a, b, shared in clashes:
-        issues.append(Issue("clash", f"{a} and {b} interpenetrate by {shared:.0f} mm3",
-                            a, "error"))
+        issues.append(Issue("clash", f"{a} and {b} interpenetrate by {shared:.0f} mm3", a, "error"))
     volume = float(sum(p.volume for p in parts))
     metrics = {
         "parts": len(parts),
@@ -193,46 +315,64 @@ def _model_metrics(developed: DevelopedPanels, parts: list[Part], results: list,
     return metrics, issues
 
 
-def _joints(developed: DevelopedPanels):
-    """Each interior joint once: (panel p, side s, panel q, side t)."""
+def _joints(
+    developed: DevelopedPanels, built: set[str] | None = None
+) -> Iterator[tuple[int, int, int, int]]:
+    """Each interior joint once: (panel p, side s, panel q, side t); with ``built`` (panel
+    ids), only the joints whose two panels are both in it."""
     neighbours = developed.layout.side_neighbours
+    ids = developed.panel_ids
     for p in range(len(neighbours)):
         for s in range(4):
-            q = neighbours[p, s]
-            if q > p:
+            q = int(neighbours[p, s])
+            if q > p and (built is None or (ids[p] in built and ids[q] in built)):
                 for t in np.flatnonzero(neighbours[q] == p):
-                    yield p, s, int(q), int(t)
+                    yield p, s, q, int(t)
 
 
-def _bolt_coaxiality(developed: DevelopedPanels, results: list, issues: list[Issue]) -> float:
+def _bolt_coaxiality(
+    developed: DevelopedPanels, results: list[dict[str, Any]], issues: list[Issue]
+) -> float:
     """Largest distance between the hole centres of back-to-back ribs, mm (both in the shared
     plane; the axes are that plane's normal)."""
     by_panel = {r["panel_id"]: r["bolts"] for r in results}
     ids = developed.panel_ids
     worst = 0.0
-    for p, s, q, t in _joints(developed):
+    for p, s, q, t in _joints(developed, set(by_panel)):
         a, b = by_panel[ids[p]].get(s), by_panel[ids[q]].get(t)
         if a is None or b is None:
             continue
         if len(a) != len(b):
-            issues.append(Issue("bolt-mismatch", f"{len(a)} bolts against {len(b)} in "
-                                f"{ids[q]}-RIB-{t}", f"{ids[p]}-RIB-{s}", "error"))
+            issues.append(
+                Issue(
+                    "bolt-mismatch",
+                    f"{len(a)} bolts against {len(b)} in {ids[q]}-RIB-{t}",
+                    f"{ids[p]}-RIB-{s}",
+                    "error",
+                )
+            )
             continue
         error = float(np.linalg.norm(a - b[::-1], axis=1).max())
         worst = max(worst, error)
         if error > TOLERANCES.bolt_coaxial:
-            issues.append(Issue("bolt-mismatch", f"bolt holes {error:.3f} mm off those of "
-                                f"{ids[q]}-RIB-{t}", f"{ids[p]}-RIB-{s}", "error"))
+            issues.append(
+                Issue(
+                    "bolt-mismatch",
+                    f"bolt holes {error:.3f} mm off those of {ids[q]}-RIB-{t}",
+                    f"{ids[p]}-RIB-{s}",
+                    "error",
+                )
+            )
     return worst
 
 
-def _edge_mismatch(developed: DevelopedPanels, results: list) -> float:
+def _edge_mismatch(developed: DevelopedPanels, results: list[dict[str, Any]]) -> float:
     """Largest distance between a top sheet's outer edge and its neighbour's along their joint,
     mm (each point to the other's polyline)."""
     edges = {r["panel_id"]: r["top_edges"] for r in results}
     ids = developed.panel_ids
     worst = 0.0
-    for p, s, q, t in _joints(developed):
+    for p, s, q, t in _joints(developed, set(edges)):
         worst = max(worst, _polyline_distance(edges[ids[p]][s], edges[ids[q]][t][::-1]))
     return worst
 
@@ -241,14 +381,23 @@ def _polyline_distance(points: np.ndarray, line: np.ndarray) -> float:
     """Largest distance of ``points (n, 3)`` to the polyline ``line (m, 3)``, mm."""
     a, b = line[:-1], line[1:]
     ab = b - a
-    t = np.clip(np.einsum("nmd,md->nm", points[:, None] - a[None], ab)
-                / np.maximum(np.einsum("md,md->m", ab, ab), 1e-300), 0.0, 1.0)
+    t = np.clip(
+        np.einsum("nmd,md->nm", points[:, None] - a[None], ab)
+        / np.maximum(np.einsum("md,md->m", ab, ab), 1e-300),
+        0.0,
+        1.0,
+    )
     foot = a[None] + t[..., None] * ab[None]
     return float(np.linalg.norm(points[:, None] - foot, axis=2).min(axis=1).max())
 
 
-def _clash_check(developed: DevelopedPanels, results: list) -> tuple[list, dict]:
-    solids, groups = {}, {}
+def _clash_check(
+    developed: DevelopedPanels, results: list[dict[str, Any]]
+) -> tuple[list[tuple[str, str, float]], dict[str, Any]]:
+    """Clashes between the parts of each built panel and between built panels that share a
+    corner (and so possibly a side); see :func:`fabpanel.model.clash.find_clashes`."""
+    solids: dict[str, Any] = {}
+    groups: dict[str, list[str]] = {}
     for result in results:
         groups[result["panel_id"]] = [part["id"] for part in result["parts"]]
         for part in result["parts"]:
@@ -260,35 +409,50 @@ def _clash_check(developed: DevelopedPanels, results: list) -> tuple[list, dict]
     for p, quad in enumerate(quads):
         for v in quad:
             corner_panels.setdefault(int(v), []).append(p)
-    pairs = sorted({(a, b) for around in corner_panels.values() for a in around for b in around
-                    if a < b})
+    pairs = sorted(
+        {
+            (a, b)
+            for around in corner_panels.values()
+            for a in around
+            for b in around
+            if a < b and ids[a] in groups and ids[b] in groups
+        }
+    )
     return find_clashes(solids, groups, [(ids[a], ids[b]) for a, b in pairs])
 
 
-def _rib_contact_gap(developed: DevelopedPanels, parts: list[Part],
-                     issues: list[Issue]) -> float:
+def _rib_contact_gap(
+    developed: DevelopedPanels, parts: list[Part], built: set[str], issues: list[Issue]
+) -> float:
     """Largest distance between a rib's outer face corners and its back-to-back neighbour's
-    rib plane, mm (0 when there are no ribs)."""
+    rib plane, mm (0 when there are no ribs; joints with a panel not built are skipped)."""
     ribs = {p.id: p for p in parts if p.kind == "rib"}
     if not ribs:
         return 0.0
     ids = developed.panel_ids
     worst = 0.0
-    for p, s, q, t in _joints(developed):
+    for p, s, q, t in _joints(developed, built):
         for (a, side_a), (b, side_b) in (((p, s), (q, t)), ((q, t), (p, s))):
             rib = ribs.get(f"{ids[a]}-RIB-{side_a}")
-            if rib is None:
+            if rib is None or rib.outline is None or rib.frame is None:
                 continue
             plane = developed.side_planes[b, side_b]
-            world = np.c_[rib.outline, np.zeros(len(rib.outline)),
-                          np.ones(len(rib.outline))] @ rib.frame.T
-            gap = float(np.abs(world[:, :3] @ plane[:3] - plane[3]).max()
-                        / np.linalg.norm(plane[:3]))
+            outline = np.asarray(rib.outline, dtype=float)
+            world = np.c_[outline, np.zeros(len(outline)), np.ones(len(outline))] @ rib.frame.T
+            gap = float(
+                np.abs(world[:, :3] @ plane[:3] - plane[3]).max() / np.linalg.norm(plane[:3])
+            )
             worst = max(worst, gap)
             if gap > TOLERANCES.rib_contact_gap:
-                issues.append(Issue("rib-gap", f"rib stands {gap:.3f} mm off its "
-                                    f"neighbour's rib plane (> "
-                                    f"{TOLERANCES.rib_contact_gap} mm)", rib.id))
+                issues.append(
+                    Issue(
+                        "rib-gap",
+                        f"rib stands {gap:.3f} mm off its "
+                        f"neighbour's rib plane (> "
+                        f"{TOLERANCES.rib_contact_gap} mm)",
+                        rib.id,
+                    )
+                )
     return worst
 
 

@@ -33,8 +33,9 @@ from ..errors import KernelError
 from ..tolerances import TOLERANCES
 
 
-def plate_solid(outline: np.ndarray, frame: np.ndarray, thickness: float,
-                shrink: float = 0.0) -> m3d.Manifold:
+def plate_solid(
+    outline: np.ndarray, frame: np.ndarray, thickness: float, shrink: float = 0.0
+) -> m3d.Manifold:
     """A flat plate: ``outline (n, 2)`` in the frame's (x, y) extruded along its z, mm, shrunk
     by ``shrink`` mm on every side."""
     section = m3d.CrossSection([np.asarray(outline, dtype=float).tolist()])
@@ -44,8 +45,9 @@ def plate_solid(outline: np.ndarray, frame: np.ndarray, thickness: float,
     return solid.transform(np.asarray(frame, dtype=float)[:3])
 
 
-def shrink_slab(outer: np.ndarray, inner: np.ndarray, shrink: float
-                ) -> tuple[np.ndarray, np.ndarray]:
+def shrink_slab(
+    outer: np.ndarray, inner: np.ndarray, shrink: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Two corresponding (a, b, 3) face grids moved ``shrink`` mm towards each other, their
     boundary rows ``shrink`` mm into the sheet along the grid."""
     across = inner - outer
@@ -57,8 +59,9 @@ def shrink_slab(outer: np.ndarray, inner: np.ndarray, shrink: float
                 edge = np.take(grid, rows, axis=axis)
                 step = np.take(grid, inward, axis=axis) - edge
                 moved = edge + shrink * step / np.maximum(
-                    np.linalg.norm(step, axis=2, keepdims=True), 1e-12)
-                index = [slice(None)] * 2
+                    np.linalg.norm(step, axis=2, keepdims=True), 1e-12
+                )
+                index: list[slice | int] = [slice(None), slice(None)]
                 index[axis] = rows[0]
                 grid[tuple(index)] = np.squeeze(moved, axis=axis)
     return grids[0], grids[1]
@@ -94,7 +97,8 @@ def part_solid(shape: tuple, name: str, shrink: float | None = None) -> m3d.Mani
     ``TOLERANCES.clash_depth``)."""
     shrink = TOLERANCES.clash_depth if shrink is None else shrink
     if shape[0] == "plate":
-        solid = plate_solid(*shape[1:], shrink=shrink)
+        _, outline, frame, thickness = shape
+        solid = plate_solid(outline, frame, thickness, shrink=shrink)
         if solid.status() != m3d.Error.NoError or solid.volume() <= 0:
             raise KernelError(f"clash solid of {name} could not be made ({solid.status()})")
         return solid
@@ -103,8 +107,10 @@ def part_solid(shape: tuple, name: str, shrink: float | None = None) -> m3d.Mani
 
 def to_manifold(vertices: np.ndarray, triangles: np.ndarray, name: str) -> m3d.Manifold:
     """A manifold3d solid from a closed, outward-oriented triangle mesh."""
-    mesh = m3d.Mesh(vert_properties=np.asarray(vertices, dtype=np.float32),
-                    tri_verts=np.asarray(triangles, dtype=np.uint32))
+    mesh = m3d.Mesh(
+        vert_properties=np.asarray(vertices, dtype=np.float32),
+        tri_verts=np.asarray(triangles, dtype=np.uint32),
+    )
     solid = m3d.Manifold(mesh)
     if solid.status() != m3d.Error.NoError:
         raise KernelError(f"tessellation of {name} is not a closed solid ({solid.status()})")
@@ -116,9 +122,12 @@ def common_volume(a: m3d.Manifold, b: m3d.Manifold) -> float:
     return float((a ^ b).volume())
 
 
-def find_clashes(solids: dict[str, m3d.Manifold], groups: dict[str, list[str]],
-                 neighbours: Iterable[tuple[str, str]], fraction: float | None = None
-                 ) -> tuple[list[tuple[str, str, float]], dict]:
+def find_clashes(
+    solids: dict[str, m3d.Manifold],
+    groups: dict[str, list[str]],
+    neighbours: Iterable[tuple[str, str]],
+    fraction: float | None = None,
+) -> tuple[list[tuple[str, str, float]], dict]:
     """Pairs of parts that interpenetrate beyond the tolerance.
 
     solids : part id -> its clash solid (:func:`part_solid`, :func:`to_manifold`).
@@ -146,19 +155,24 @@ def find_clashes(solids: dict[str, m3d.Manifold], groups: dict[str, list[str]],
         shared = common_volume(unions[first], unions[second])
         smallest = min(volumes[i] for i in groups[first] + groups[second])
         if shared > fraction * smallest:
-            found, relative = _pairwise(groups[first], groups[second], solids, volumes,
-                                        fraction)
+            found, relative = _pairwise(groups[first], groups[second], solids, volumes, fraction)
             clashes += found
             worst = max(worst, relative)
             checked += len(groups[first]) * len(groups[second])
-    measures = {"groups": len(groups), "group_pairs": len(neighbours),
-                "part_pairs_checked": checked, "clashes": len(clashes),
-                "max_relative_overlap": worst, "tolerance_fraction": fraction}
+    measures = {
+        "groups": len(groups),
+        "group_pairs": len(neighbours),
+        "part_pairs_checked": checked,
+        "clashes": len(clashes),
+        "max_relative_overlap": worst,
+        "tolerance_fraction": fraction,
+    }
     return clashes, measures
 
 
-def _pairwise(first: list[str], second: list[str], solids: dict, volumes: dict,
-              fraction: float) -> tuple[list[tuple[str, str, float]], float]:
+def _pairwise(
+    first: list[str], second: list[str], solids: dict, volumes: dict, fraction: float
+) -> tuple[list[tuple[str, str, float]], float]:
     found, worst = [], 0.0
     for a in first:
         for b in second:

@@ -16,6 +16,7 @@ import logging
 from pathlib import Path
 
 import build123d as bd
+import numpy as np
 
 from ..data import Model, Part
 from ..errors import KernelError
@@ -44,19 +45,35 @@ def _panel_compound(model: Model, panel_id: str) -> bd.Compound:
     return bd.Compound(children=children, label=panel_id)
 
 
+def _placed(compound: bd.Compound, model: Model) -> bd.Compound:
+    """``compound`` placed in the design's own frame: the parts are built in the local frame
+    (:mod:`fabpanel.surface.frame`); the files carry the origin as the top node's location."""
+    origin = model.developed.layout.origin
+    if np.any(origin):
+        compound.location = bd.Location(tuple(float(v) for v in origin))
+    return compound
+
+
 def write_step_assembly(model: Model, path: str | Path, density: float | None = None) -> Path:
     """One STEP file (AP214, mm) with every part a named, coloured solid, grouped per panel,
     with material and part properties (see the module docstring). ``density``: kg/mm3 for the
     material record (default: from the parts' mass and volume)."""
     path = Path(path)
-    panels = [_panel_compound(model, pid) for pid in model.developed.panel_ids
-              if model.parts_of(pid)]
-    _write_step(bd.Compound(children=panels, label="fabpanel"), model.parts, path, density)
+    panels = [
+        _panel_compound(model, pid) for pid in model.developed.panel_ids if model.parts_of(pid)
+    ]
+    _write_step(
+        _placed(bd.Compound(children=panels, label="fabpanel"), model), model.parts, path, density
+    )
     return path
 
 
-def _write_step(assembly: bd.Compound, parts: tuple[Part, ...] | list[Part], path: Path,
-                density: float | None = None) -> None:
+def _write_step(
+    assembly: bd.Compound,
+    parts: tuple[Part, ...] | list[Part],
+    path: Path,
+    density: float | None = None,
+) -> None:
     from build123d.exporters3d import _create_xde
     from OCP.collections import Sequence_TDF_Label
     from OCP.IFSelect import IFSelect_ReturnStatus
@@ -88,20 +105,35 @@ def _write_step(assembly: bd.Compound, parts: tuple[Part, ...] | list[Part], pat
         if part.material not in material_labels:
             rho = density if density is not None else part.mass / max(part.volume, 1e-300)
             material_labels[part.material] = materials.AddMaterial(
-                TCollection_HAsciiString(part.material), TCollection_HAsciiString("steel"),
-                rho * 1e9, TCollection_HAsciiString("density"),
-                TCollection_HAsciiString("kg/m3"))
+                TCollection_HAsciiString(part.material),
+                TCollection_HAsciiString("steel"),
+                rho * 1e9,
+                TCollection_HAsciiString("density"),
+                TCollection_HAsciiString("kg/m3"),
+            )
         materials.SetMaterial(label, material_labels[part.material])
         data = TDataStd_NamedData.Set_s(label)
-        for key, value in (("kind", part.kind), ("panel", part.panel_id),
-                           ("material", part.material)):
+        for key, value in (
+            ("kind", part.kind),
+            ("panel", part.panel_id),
+            ("material", part.material),
+        ):
             data.SetString(TCollection_ExtendedString(key), TCollection_ExtendedString(value))
-        for key, value in (("thickness_mm", part.thickness), ("volume_mm3", part.volume),
-                           ("area_mm2", part.area), ("mass_kg", part.mass)):
-            data.SetReal(TCollection_ExtendedString(key), float(value))
+        for key, number in (
+            ("thickness_mm", part.thickness),
+            ("volume_mm3", part.volume),
+            ("area_mm2", part.area),
+            ("mass_kg", part.mass),
+        ):
+            data.SetReal(TCollection_ExtendedString(key), float(number))
     writer = STEPCAFControl_Writer(XSControl_WorkSession(), False)
-    for mode in (writer.SetColorMode, writer.SetNameMode, writer.SetLayerMode,
-                 writer.SetMaterialMode, writer.SetMetadataMode):
+    for mode in (
+        writer.SetColorMode,
+        writer.SetNameMode,
+        writer.SetLayerMode,
+        writer.SetMaterialMode,
+        writer.SetMetadataMode,
+    ):
         mode(True)
     if not writer.Transfer(doc, STEPControl_StepModelType.STEPControl_AsIs):
         raise KernelError(f"STEP transfer for {path.name} failed")
@@ -118,30 +150,43 @@ def write_panel_steps(model: Model, folder: str | Path) -> dict[str, str]:
         if not model.parts_of(pid):
             continue
         name = f"{pid}.step"
-        _write_step(_panel_compound(model, pid), model.parts_of(pid), folder / name)
+        _write_step(_placed(_panel_compound(model, pid), model), model.parts_of(pid), folder / name)
         written[pid] = name
     return written
 
 
-def write_glb(model: Model, path: str | Path, linear_deflection: float = 0.5,
-              angular_deflection: float = 0.2) -> Path:
+def write_glb(
+    model: Model, path: str | Path, linear_deflection: float = 0.5, angular_deflection: float = 0.2
+) -> Path:
     """A tessellated binary glTF preview of all parts (coloured by kind), mm.
 
     linear_deflection : mm, chord error of the tessellation (0.5 mm is invisible in a preview
     of a building and keeps the file small).
     """
     path = Path(path)
-    panels = [_panel_compound(model, pid) for pid in model.developed.panel_ids
-              if model.parts_of(pid)]
-    assembly = bd.Compound(children=panels, label="fabpanel")
-    if not bd.export_gltf(assembly, str(path), binary=True, linear_deflection=linear_deflection,
-                          angular_deflection=angular_deflection):
+    panels = [
+        _panel_compound(model, pid) for pid in model.developed.panel_ids if model.parts_of(pid)
+    ]
+    # the origin sits one node below the root: export_gltf turns the root from z-up to y-up
+    placed = _placed(bd.Compound(children=panels, label="panels"), model)
+    assembly = bd.Compound(children=[placed], label="fabpanel")
+    if not bd.export_gltf(
+        assembly,
+        str(path),
+        binary=True,
+        linear_deflection=linear_deflection,
+        angular_deflection=angular_deflection,
+    ):
         raise KernelError(f"glTF export to {path} failed")
     return path
 
 
 def read_step_parts(path: str | Path) -> dict[str, object]:
-    """{label: OCCT shape} of every labelled solid in a STEP file (assembly nodes are walked)."""
+    """{label: OCCT shape} of every labelled solid in a STEP file (assembly nodes are walked).
+
+    The shapes are in the parts' own (local) frame: the location of the file's top node, which
+    places the assembly in the design's frame (``PanelLayout.origin``), is not applied.
+    """
     path = Path(path)
     if not path.is_file():
         raise KernelError(f"STEP file {path} does not exist")

@@ -40,8 +40,14 @@ def along_polyline(points: np.ndarray, stations: np.ndarray) -> tuple[np.ndarray
     return points[lower] * (1 - frac) + points[lower + 1] * frac, index
 
 
-def bolt_centres(side_points: np.ndarray, side_normals: np.ndarray, plane: np.ndarray,
-                 depth: float, spacing: float, edge_distance: float) -> np.ndarray:
+def bolt_centres(
+    side_points: np.ndarray,
+    side_normals: np.ndarray,
+    plane: np.ndarray,
+    depth: float,
+    spacing: float,
+    edge_distance: float,
+) -> np.ndarray:
     """(n, 3) float: bolt hole centres of one joint, in the rib plane, mm.
 
     side_points, side_normals : (k, 3) float, the shared side's developed samples and normals.
@@ -60,8 +66,9 @@ def bolt_centres(side_points: np.ndarray, side_normals: np.ndarray, plane: np.nd
     return centres - (centres @ plane[:3] - plane[3])[:, None] * plane[:3]
 
 
-def access_points(bolts: np.ndarray, plane: np.ndarray, rib_thickness: float,
-                  diameter: float) -> np.ndarray:
+def access_points(
+    bolts: np.ndarray, plane: np.ndarray, rib_thickness: float, diameter: float
+) -> np.ndarray:
     """(n, 3) float: where the access openings of a rib's bolts are aimed, mm: beside each bolt,
     inside the panel, the opening's edge ``ACCESS_CLEARANCE`` from the rib's inner face."""
     return bolts + (rib_thickness + ACCESS_CLEARANCE + diameter / 2) * plane[:3]
@@ -71,16 +78,16 @@ def merge_close(points: np.ndarray, distance: float) -> np.ndarray:
     """(n', 3) float: ``points (n, 3)`` with every pair closer than ``distance`` replaced by
     its midpoint, repeatedly. Near a corner the first bolts of the two ribs are about 30 mm
     apart: one opening between them reaches both nuts, where two would overlap."""
-    points = [p for p in np.asarray(points, dtype=float)]
+    remaining = [p for p in np.asarray(points, dtype=float)]
     merged = True
-    while merged and len(points) > 1:
+    while merged and len(remaining) > 1:
         merged = False
-        array = np.array(points)
+        array = np.array(remaining)
         dist = np.linalg.norm(array[:, None] - array[None], axis=2)
         np.fill_diagonal(dist, np.inf)
         i, j = np.unravel_index(np.argmin(dist), dist.shape)
         if dist[i, j] < distance:
-            points = [p for n, p in enumerate(points) if n not in (i, j)]
-            points.append((array[i] + array[j]) / 2)
+            remaining = [p for n, p in enumerate(remaining) if n not in (i, j)]
+            remaining.append((array[i] + array[j]) / 2)
             merged = True
-    return np.array(points).reshape(-1, 3)
+    return np.array(remaining).reshape(-1, 3)

@@ -72,8 +72,9 @@ def bspline_surface(grid: np.ndarray, name: str = "surface") -> tuple[Geom_BSpli
     """
     grid = np.asarray(grid, dtype=float)
     if grid.ndim != 3 or grid.shape[2] != 3 or min(grid.shape[:2]) < 2:
-        raise KernelError(f"B-spline interpolation of {name}: grid must be (k, k, 3), "
-                          f"got {grid.shape}")
+        raise KernelError(
+            f"B-spline interpolation of {name}: grid must be (k, k, 3), got {grid.shape}"
+        )
     if not np.all(np.isfinite(grid)):
         raise KernelError(f"B-spline interpolation of {name}: grid has non-finite points")
     nu, nv = grid.shape[:2]
@@ -102,8 +103,9 @@ def sample_surface(surface: Geom_Surface, a: int, b: int, offset: float = 0.0) -
     return surface_points(surface, us.ravel(), vs.ravel(), offset).reshape(a, b, 3)
 
 
-def surface_points(surface: Geom_Surface, us: np.ndarray, vs: np.ndarray,
-                   offset: float = 0.0) -> np.ndarray:
+def surface_points(
+    surface: Geom_Surface, us: np.ndarray, vs: np.ndarray, offset: float = 0.0
+) -> np.ndarray:
     """(n, 3) float: ``S(u, v) + offset * N(u, v)`` at the parameter pairs ``us, vs (n,)``, with
     ``N`` the unit normal ``dS/du x dS/dv``."""
     out = np.empty((len(us), 3))
@@ -120,8 +122,9 @@ def surface_points(surface: Geom_Surface, us: np.ndarray, vs: np.ndarray,
     return out
 
 
-def surface_derivatives(surface: Geom_Surface, uv: np.ndarray
-                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def surface_derivatives(
+    surface: Geom_Surface, uv: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Points, dS/du and dS/dv, each (n, 3) float, at the parameter pairs ``uv (n, 2)``.
 
     Parameters outside the domain extrapolate the boundary polynomial span (OCCT evaluates
@@ -138,8 +141,9 @@ def surface_derivatives(surface: Geom_Surface, uv: np.ndarray
     return out[0], out[1], out[2]
 
 
-def plane_section(surface: Geom_Surface, plane: np.ndarray, per_curve: int = 257,
-                  name: str = "surface") -> np.ndarray:
+def plane_section(
+    surface: Geom_Surface, plane: np.ndarray, per_curve: int = 257, name: str = "surface"
+) -> np.ndarray:
     """(n, 3) float: points of the intersection of a surface with ``plane (4,)`` (unit normal,
     ``n . x = d``), ``per_curve`` per intersection curve, mm (empty when they do not meet)."""
     normal = np.asarray(plane[:3], dtype=float)
@@ -184,8 +188,12 @@ def face_from_surface(surface: Geom_Surface, name: str = "face") -> TopoDS_Shape
 # --------------------------------------------------------------------------------------------
 # solids
 # --------------------------------------------------------------------------------------------
-def slab(outer: Geom_BSplineSurface, inner: Geom_BSplineSurface, name: str = "sheet",
-         holes: Iterable[tuple[np.ndarray, np.ndarray]] = ()) -> TopoDS_Shape:
+def slab(
+    outer: Geom_BSplineSurface,
+    inner: Geom_BSplineSurface,
+    name: str = "sheet",
+    holes: Iterable[tuple[np.ndarray, np.ndarray]] = (),
+) -> TopoDS_Shape:
     """A closed sheet solid between two surfaces over the same parameter square: the two faces
     and four ruled side faces between their boundary iso-curves, sewn and made a solid.
 
@@ -199,8 +207,10 @@ def slab(outer: Geom_BSplineSurface, inner: Geom_BSplineSurface, name: str = "sh
         angles, so they run along the hole axis): a drilled sheet without a boolean, which
         costs about 1 s per sheet on B-spline faces.
     """
-    faces = [BRepBuilderAPI_MakeFace(surface, *surface.Bounds(), FACE_TOLERANCE)
-             for surface in (outer, inner)]
+    faces = [
+        BRepBuilderAPI_MakeFace(surface, *surface.Bounds(), FACE_TOLERANCE)
+        for surface in (outer, inner)
+    ]
     walls = []
     for loops in holes:
         edges = []
@@ -264,12 +274,21 @@ def _edge_on_surface(surface: Geom_Surface, loop: np.ndarray, name: str) -> Topo
 
 def _iso_curve(surface: Geom_Surface, side: int):
     u0, u1, v0, v1 = surface.Bounds()
-    return {0: lambda: surface.VIso(v0), 1: lambda: surface.UIso(u1),
-            2: lambda: surface.VIso(v1), 3: lambda: surface.UIso(u0)}[side]()
+    return {
+        0: lambda: surface.VIso(v0),
+        1: lambda: surface.UIso(u1),
+        2: lambda: surface.VIso(v1),
+        3: lambda: surface.UIso(u0),
+    }[side]()
 
 
-def prism(chains: list[np.ndarray], frame: np.ndarray, thickness: float,
-          name: str = "part", holes: Iterable[tuple[np.ndarray, float]] = ()) -> TopoDS_Shape:
+def prism(
+    chains: list[np.ndarray],
+    frame: np.ndarray,
+    thickness: float,
+    name: str = "part",
+    holes: Iterable[tuple[np.ndarray, float]] = (),
+) -> TopoDS_Shape:
     """A planar plate extruded by ``thickness`` mm along the frame's +z.
 
     chains : list of (n_i, 2) float
@@ -290,8 +309,9 @@ def prism(chains: list[np.ndarray], frame: np.ndarray, thickness: float,
         world = (np.c_[chain, np.zeros(len(chain)), np.ones(len(chain))] @ frame.T)[:, :3]
         wire.Add(_edge(world, f"{name} outline chain {index}"))
         if not wire.IsDone():
-            raise KernelError(f"outline of {name} is not a connected wire (chain {index}, "
-                              f"error {wire.Error()})")
+            raise KernelError(
+                f"outline of {name} is not a connected wire (chain {index}, error {wire.Error()})"
+            )
     face = BRepBuilderAPI_MakeFace(wire.Wire(), True)
     if not face.IsDone():
         raise KernelError(f"outline of {name} is not a planar face (error {face.Error()})")

@@ -54,11 +54,24 @@ MAX_STIFFENED_ANGLE = 150.0
 #: a 40 mm circle)
 HOLE_POINTS = 24
 
+#: what a panel build found: ``(code, part id, message)`` or, with a severity other than the
+#: default, ``(code, part id, message, severity)`` (the arguments of an ``Issue``)
+Finding = tuple[str, str, str] | tuple[str, str, str, str]
 
-def build_panel(payload: dict[str, Any]) -> dict[str, Any]:
+
+def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict[str, Any]:
     """All parts of one panel (see the module docstring); returns part records (BREP bytes,
-    outlines, holes, tessellations) and the panel's measures and findings."""
+    outlines, holes, tessellations) and the panel's measures and findings.
+
+    where : when given, its last item is set to the id of the part being built, so that a
+    caller can name the part an exception came from (not every kernel message names it).
+    """
     pid = payload["panel_id"]
+    where = [pid] if where is None else where
+
+    def building(part: str) -> None:
+        where[-1] = part
+
     samples, normals = payload["samples"], payload["normals"]
     planes = payload["planes"] / np.linalg.norm(payload["planes"][:, :3], axis=1, keepdims=True)
     offsets = payload["offsets"]
@@ -67,100 +80,207 @@ def build_panel(payload: dict[str, Any]) -> dict[str, Any]:
     sandwich = payload["buildup"] == "sandwich"
     trim = np.full(4, sandwich)
     limit = payload["slide_limit"]
-    findings: list[tuple[str, str, str]] = []
+    findings: list[Finding] = []
     measures: dict[str, Any] = {}
 
     def face(offset: float, what: str) -> TrimmedFace:
-        result = trimmed_face(samples + offset * normals, centre_normal, planes, trim, limit,
-                              f"{pid}-{what}")
+        result = trimmed_face(
+            samples + offset * normals, centre_normal, planes, trim, limit, f"{pid}-{what}"
+        )
         for side in np.flatnonzero(result.untrimmed):
-            findings.append(("sheet-not-trimmed", f"{pid}-{what[:3]}",
-                             (f"sheet face edge {side} left at the developed edge: its rib plane "
-                             f"meets the face only {limit:g}+ mm away (nearly tangent)")))
+            findings.append(
+                (
+                    "sheet-not-trimmed",
+                    f"{pid}-{what[:3]}",
+                    (
+                        f"sheet face edge {side} left at the developed edge: its rib plane "
+                        f"meets the face only {limit:g}+ mm away (nearly tangent)"
+                    ),
+                )
+            )
         return result
 
-    top_outer, top_inner = face(offsets["top_outer"], "TOP outer"), face(offsets["top_inner"],
-                                                                           "TOP inner")
+    building(f"{pid}-TOP")
+    top_outer, top_inner = (
+        face(offsets["top_outer"], "TOP outer"),
+        face(offsets["top_inner"], "TOP inner"),
+    )
     faces = {"top_outer": top_outer, "top_inner": top_inner}
     bolts: dict[int, np.ndarray] = {}
     if sandwich:
+        building(f"{pid}-BOT")
         faces["bottom_upper"] = face(offsets["bottom_upper"], "BOT upper")
         faces["bottom_lower"] = face(offsets["bottom_lower"], "BOT lower")
         mid = (offsets["top_inner"] + offsets["bottom_upper"]) / 2
         bolt = payload["bolt"]
-        for side in np.flatnonzero(payload["interior"]):
-            bolts[int(side)] = joints.bolt_centres(
-                side_rows(samples)[side], side_rows(normals)[side], planes[side], mid,
-                bolt["spacing"], bolt["edge_distance"])
+        for interior_side in np.flatnonzero(payload["interior"]):
+            building(f"{pid}-RIB-{interior_side}")
+            bolts[int(interior_side)] = joints.bolt_centres(
+                side_rows(samples)[interior_side],
+                side_rows(normals)[interior_side],
+                planes[interior_side],
+                mid,
+                bolt["spacing"],
+                bolt["edge_distance"],
+            )
     measures["sheet_fit_error_mm"] = max(f.fit_error for f in faces.values())
     measures["sheet_trim_slide_mm"] = max(float(f.slide.max()) for f in faces.values())
 
     access = payload["bolt"]["access_sheet"] if sandwich and bolts else "none"
-    parts = [_sheet(f"{pid}-TOP", "sheet-top", top_outer, top_inner, payload["t_top"],
-                    payload["fibre"], k, access == "top", bolts, planes, payload)]
+    building(f"{pid}-TOP")
+    parts = [
+        _sheet(
+            f"{pid}-TOP",
+            "sheet-top",
+            top_outer,
+            top_inner,
+            payload["t_top"],
+            payload["fibre"],
+            k,
+            access == "top",
+            bolts,
+            planes,
+            payload,
+        )
+    ]
     if sandwich:
-        parts.append(_sheet(f"{pid}-BOT", "sheet-bottom", faces["bottom_upper"],
-                            faces["bottom_lower"], payload["t_bot"], payload["fibre"], k,
-                            access == "bottom", bolts, planes, payload))
+        building(f"{pid}-BOT")
+        parts.append(
+            _sheet(
+                f"{pid}-BOT",
+                "sheet-bottom",
+                faces["bottom_upper"],
+                faces["bottom_lower"],
+                payload["t_bot"],
+                payload["fibre"],
+                k,
+                access == "bottom",
+                bolts,
+                planes,
+                payload,
+            )
+        )
         ribs, stiffeners = [], []
         k_mid = samples.shape[0] // 2
         for side in range(4):
             normal = side_rows(normals)[side][k_mid]
             tilt = float(np.degrees(np.arcsin(min(1.0, abs(normal @ planes[side, :3])))))
             if tilt > 90.0 - 30.0:
-                findings.append(("rib-plane-tangent", f"{pid}-RIB-{side}", (f"rib plane within "
-                                 f"{90 - tilt:.0f} degrees of the sheet: the rib lies nearly "
-                                 "flat, not between the sheets; change the layout at this edge")))
+                findings.append(
+                    (
+                        "rib-plane-tangent",
+                        f"{pid}-RIB-{side}",
+                        (
+                            f"rib plane within "
+                            f"{90 - tilt:.0f} degrees of the sheet: the rib lies nearly "
+                            "flat, not between the sheets; change the layout at this edge"
+                        ),
+                    )
+                )
         for side in range(4):
             name = f"{pid}-RIB-{side}"
+            building(name)
             try:
-                ribs.append(_rib(name, side, planes, top_inner, faces["bottom_upper"],
-                                 payload["t_rib"], bolts.get(side), payload["bolt"]["diameter"]))
+                ribs.append(
+                    _rib(
+                        name,
+                        side,
+                        planes,
+                        top_inner,
+                        faces["bottom_upper"],
+                        payload["t_rib"],
+                        bolts.get(side),
+                        payload["bolt"]["diameter"],
+                    )
+                )
             except KernelError as err:
                 # a degenerate panel edge (e.g. a boundary rib plane nearly tangent to the
                 # sheet): the rest of the panel is built, the missing rib is an error issue
                 findings.append(("plate-failed", name, f"not built: {err}", "error"))
-        lengths = [float(np.linalg.norm(np.diff(row, axis=0), axis=1).sum())
-                   for row in side_rows(samples)]
+        lengths = [
+            float(np.linalg.norm(np.diff(row, axis=0), axis=1).sum()) for row in side_rows(samples)
+        ]
         short = [s for s in range(4) if lengths[s] < 2 * payload["stiffener_offset"] + 1.0]
         if short:
             # the stiffeners at both ends of a side would meet or cross
-            findings.append(("stiffeners-skipped", pid, (f"no corner stiffeners: side(s) "
-                             f"{short} shorter than twice the stiffener offset "
-                             f"({payload['stiffener_offset']:g} mm); lower "
-                             "[sandwich] stiffener_offset or enlarge the panels")))
+            findings.append(
+                (
+                    "stiffeners-skipped",
+                    pid,
+                    (
+                        f"no corner stiffeners: side(s) "
+                        f"{short} shorter than twice the stiffener offset "
+                        f"({payload['stiffener_offset']:g} mm); lower "
+                        "[sandwich] stiffener_offset or enlarge the panels"
+                    ),
+                )
+            )
         for corner in range(4 if not short else 0):
             name = f"{pid}-STF-{corner}"
+            building(name)
             angle = _corner_angle(samples, corner)
             if angle > MAX_STIFFENED_ANGLE:
-                findings.append(("stiffener-skipped", name, (f"corner opens {angle:.0f} degrees "
-                                 f"(> {MAX_STIFFENED_ANGLE:g}): nothing to stiffen")))
+                findings.append(
+                    (
+                        "stiffener-skipped",
+                        name,
+                        (
+                            f"corner opens {angle:.0f} degrees "
+                            f"(> {MAX_STIFFENED_ANGLE:g}): nothing to stiffen"
+                        ),
+                    )
+                )
                 continue
             try:
-                stiffeners.append(_stiffener(name, corner, planes, top_outer, top_inner,
-                                             faces["bottom_upper"], payload))
+                stiffeners.append(
+                    _stiffener(
+                        name, corner, planes, top_outer, top_inner, faces["bottom_upper"], payload
+                    )
+                )
             except KernelError as err:
                 findings.append(("stiffener-skipped", name, f"not built: {err}"))
         parts += ribs + stiffeners
         measures["plate_planarity_mm"] = {r["id"]: r["planarity"] for r in ribs + stiffeners}
+        building(pid)
         findings += _clearance_findings(pid, parts, bolts, planes, payload)
-    findings += [("access-clash", part["id"], message) for part in parts
-                 for message in part.get("dropped", ())]
+    findings += [
+        ("access-clash", part["id"], message)
+        for part in parts
+        for message in part.get("dropped", ())
+    ]
     measures["bolts"] = int(sum(len(b) for b in bolts.values()))
-    measures["access_openings"] = int(sum(len(p["holes"]) for p in parts
-                                          if p["kind"].startswith("sheet")))
+    measures["access_openings"] = int(
+        sum(len(p["holes"]) for p in parts if p["kind"].startswith("sheet"))
+    )
     measures["valid"] = all(p["valid"] for p in parts)
+    building(f"{pid}-TOP")
     edges = [side_curve(top_outer.surface, side, 129) for side in range(4)]
-    return {"panel_id": pid, "parts": parts, "measures": measures, "findings": findings,
-            "bolts": bolts, "top_edges": edges}
+    return {
+        "panel_id": pid,
+        "parts": parts,
+        "measures": measures,
+        "findings": findings,
+        "bolts": bolts,
+        "top_edges": edges,
+    }
 
 
 # --------------------------------------------------------------------------------------------
 # sheets
 # --------------------------------------------------------------------------------------------
-def _sheet(name: str, kind: str, outer: TrimmedFace, inner: TrimmedFace, thickness: float,
-           fibre: str, k: int, with_access: bool, bolts: dict[int, np.ndarray],
-           planes: np.ndarray, payload: dict) -> dict:
+def _sheet(
+    name: str,
+    kind: str,
+    outer: TrimmedFace,
+    inner: TrimmedFace,
+    thickness: float,
+    fibre: str,
+    k: int,
+    with_access: bool,
+    bolts: dict[int, np.ndarray],
+    planes: np.ndarray,
+    payload: dict,
+) -> dict:
     """A sheet solid between two trimmed faces (``outer``: away from the ribs for the top
     sheet, the face on the ribs for the bottom sheet), with its access openings."""
     dense = GRID_REFINE * (k - 1) + 1
@@ -168,8 +288,11 @@ def _sheet(name: str, kind: str, outer: TrimmedFace, inner: TrimmedFace, thickne
     grid_b = occ.sample_surface(inner.surface, dense, dense)
     # "outer" and "inner" fibres: the sheet's face away from / towards the panel's ribs
     cavity_face_first = kind == "sheet-bottom"
-    depth = {"mid": 0.5, "outer": 1.0 if cavity_face_first else 0.0,
-             "inner": 0.0 if cavity_face_first else 1.0}[fibre]
+    depth = {
+        "mid": 0.5,
+        "outer": 1.0 if cavity_face_first else 0.0,
+        "inner": 0.0 if cavity_face_first else 1.0,
+    }[fibre]
     surface_grid = (1 - depth) * grid_a + depth * grid_b
     mid_area = _grid_area((grid_a + grid_b) / 2)
     holes: list[Hole] = []
@@ -180,15 +303,23 @@ def _sheet(name: str, kind: str, outer: TrimmedFace, inner: TrimmedFace, thickne
         bolt = payload["bolt"]
         diameter = bolt["access_diameter"]
         cavity = inner if kind == "sheet-top" else outer
-        aims = joints.merge_close(np.concatenate(
-            [joints.access_points(b, planes[s], payload["t_rib"], diameter)
-             for s, b in sorted(bolts.items())]), diameter + ACCESS_MIN_CLEAR)
+        aims = joints.merge_close(
+            np.concatenate(
+                [
+                    joints.access_points(b, planes[s], payload["t_rib"], diameter)
+                    for s, b in sorted(bolts.items())
+                ]
+            ),
+            diameter + ACCESS_MIN_CLEAR,
+        )
         # an opening must clear every rib of the panel (and so lie inside the sheet)
         clear = (aims @ planes[:, :3].T - planes[:, 3] - payload["t_rib"]).min(axis=1)
         fits = clear >= diameter / 2 + ACCESS_MIN_CLEAR
-        dropped += [f"access opening at {np.round(a, 1).tolist()} would run under a rib "
-                    f"({c - diameter / 2:.1f} mm clear); its bolt is reached from elsewhere"
-                    for a, c in zip(aims[~fits], clear[~fits])]
+        dropped += [
+            f"access opening at {np.round(a, 1).tolist()} would run under a rib "
+            f"({c - diameter / 2:.1f} mm clear); its bolt is reached from elsewhere"
+            for a, c in zip(aims[~fits], clear[~fits])
+        ]
         aims = aims[fits]
         if len(aims):
             uv = occ.project_to_surface(cavity.surface, aims)
@@ -197,9 +328,11 @@ def _sheet(name: str, kind: str, outer: TrimmedFace, inner: TrimmedFace, thickne
             loops_out, ok_out = hole_loops(outer.surface, openings, axes, diameter / 2)
             loops_in, ok_in = hole_loops(inner.surface, openings, axes, diameter / 2)
             ok = ok_out & ok_in
-            dropped += [f"access opening at {np.round(a, 1).tolist()} left out: its outline on "
-                        "the sheet faces was not found (the sheet curves too much there)"
-                        for a in openings[~ok]]
+            dropped += [
+                f"access opening at {np.round(a, 1).tolist()} left out: its outline on "
+                "the sheet faces was not found (the sheet curves too much there)"
+                for a in openings[~ok]
+            ]
             loops = list(zip(loops_out[ok], loops_in[ok]))
             openings = openings[ok]
             holes = [Hole((float(u), float(v)), float(diameter), "access") for u, v in uv[ok]]
@@ -212,14 +345,25 @@ def _sheet(name: str, kind: str, outer: TrimmedFace, inner: TrimmedFace, thickne
         solid = occ.slab(outer.surface, inner.surface, name)
         holes, openings = [], np.zeros((0, 3))
     mid_area -= len(holes) * np.pi * payload["bolt"]["access_diameter"] ** 2 / 4
-    return {"dropped": dropped, "id": name, "kind": kind, "thickness": thickness, "volume": occ.volume(solid),
-            "area": float(mid_area), "brep": occ.to_brep(solid), "surface_grid": surface_grid,
-            "holes": holes, "openings": openings, "valid": occ.is_valid(solid),
-            "clash_shape": ("slab", grid_a, grid_b)}
+    return {
+        "dropped": dropped,
+        "id": name,
+        "kind": kind,
+        "thickness": thickness,
+        "volume": occ.volume(solid),
+        "area": float(mid_area),
+        "brep": occ.to_brep(solid),
+        "surface_grid": surface_grid,
+        "holes": holes,
+        "openings": openings,
+        "valid": occ.is_valid(solid),
+        "clash_shape": ("slab", grid_a, grid_b),
+    }
 
 
-def hole_loops(surface, centres: np.ndarray, axes: np.ndarray, radius: float,
-               points: int = HOLE_POINTS) -> tuple[np.ndarray, np.ndarray]:
+def hole_loops(
+    surface, centres: np.ndarray, axes: np.ndarray, radius: float, points: int = HOLE_POINTS
+) -> tuple[np.ndarray, np.ndarray]:
     """(h, points, 2) float: where round holes (axis through ``centres (h, 3)`` along ``axes``)
     meet a surface, as parameter loops at equal angles around each axis (2D Newton per point:
     the surface point whose offset from the axis is ``radius`` at that angle); and (h,) bool,
@@ -231,7 +375,7 @@ def hole_loops(surface, centres: np.ndarray, axes: np.ndarray, radius: float,
     e2 = np.cross(axes, e1)
     angle = np.linspace(0.0, 2 * np.pi, points, endpoint=False)
     h = len(centres)
-    target = np.stack([np.cos(angle), np.sin(angle)], axis=1) * radius       # (points, 2)
+    target = np.stack([np.cos(angle), np.sin(angle)], axis=1) * radius  # (points, 2)
     e1r, e2r = np.repeat(e1, points, axis=0), np.repeat(e2, points, axis=0)
     goal = np.tile(target, (h, 1))
     origin = np.repeat(centres, points, axis=0)
@@ -242,10 +386,13 @@ def hole_loops(surface, centres: np.ndarray, axes: np.ndarray, radius: float,
         f = np.stack([np.einsum("nd,nd->n", rel, e1r), np.einsum("nd,nd->n", rel, e2r)], 1) - goal
         if np.abs(f).max() < 1e-7:
             break
-        jac = np.stack([np.stack([np.einsum("nd,nd->n", e1r, du), np.einsum("nd,nd->n", e1r, dv)],
-                                 1),
-                        np.stack([np.einsum("nd,nd->n", e2r, du), np.einsum("nd,nd->n", e2r, dv)],
-                                 1)], axis=1)
+        jac = np.stack(
+            [
+                np.stack([np.einsum("nd,nd->n", e1r, du), np.einsum("nd,nd->n", e1r, dv)], 1),
+                np.stack([np.einsum("nd,nd->n", e2r, du), np.einsum("nd,nd->n", e2r, dv)], 1),
+            ],
+            axis=1,
+        )
         step = np.linalg.solve(jac + 1e-12 * np.eye(2), f[..., None])[..., 0]
         uv = np.where(np.isfinite(step), uv - step, uv)
     converged = np.isfinite(f).all(axis=1) & (np.abs(f).max(axis=1, initial=0.0) < 1e-6)
@@ -255,8 +402,13 @@ def hole_loops(surface, centres: np.ndarray, axes: np.ndarray, radius: float,
 def _grid_area(grid: np.ndarray) -> float:
     """Area of a dense (a, b, 3) grid as two triangles per cell, mm2."""
     a, b, c, d = grid[:-1, :-1], grid[1:, :-1], grid[1:, 1:], grid[:-1, 1:]
-    return float(0.5 * (np.linalg.norm(np.cross(b - a, c - a), axis=-1).sum()
-                        + np.linalg.norm(np.cross(c - a, d - a), axis=-1).sum()))
+    return float(
+        0.5
+        * (
+            np.linalg.norm(np.cross(b - a, c - a), axis=-1).sum()
+            + np.linalg.norm(np.cross(c - a, d - a), axis=-1).sum()
+        )
+    )
 
 
 def side_curve(surface, side: int, n: int) -> np.ndarray:
@@ -267,16 +419,27 @@ def side_curve(surface, side: int, n: int) -> np.ndarray:
 
 def _side_uv(side: int, n: int) -> tuple[np.ndarray, np.ndarray]:
     t = np.linspace(0.0, 1.0, n)
-    return {0: (t, np.zeros(n)), 1: (np.ones(n), t), 2: (1 - t, np.ones(n)),
-            3: (np.zeros(n), 1 - t)}[side]
+    return {
+        0: (t, np.zeros(n)),
+        1: (np.ones(n), t),
+        2: (1 - t, np.ones(n)),
+        3: (np.zeros(n), 1 - t),
+    }[side]
 
 
 # --------------------------------------------------------------------------------------------
 # ribs and stiffeners: flat plates
 # --------------------------------------------------------------------------------------------
-def _rib(name: str, side: int, planes: np.ndarray, top_inner: TrimmedFace,
-         bottom_upper: TrimmedFace, t_rib: float, bolts: np.ndarray | None,
-         bolt_diameter: float) -> dict:
+def _rib(
+    name: str,
+    side: int,
+    planes: np.ndarray,
+    top_inner: TrimmedFace,
+    bottom_upper: TrimmedFace,
+    t_rib: float,
+    bolts: np.ndarray | None,
+    bolt_diameter: float,
+) -> dict:
     """One rib plate in its side plane (see the module docstring)."""
     plane = planes[side]
     # the edges densely (as the plane sections), so interpolating them between stations does
@@ -285,8 +448,10 @@ def _rib(name: str, side: int, planes: np.ndarray, top_inner: TrimmedFace,
     lower = side_curve(bottom_upper.surface, side, SECTION_POINTS)
     frame = plane_frame(plane, upper[0], upper[-1] - upper[0])
     span = float(np.linalg.norm(upper[-1] - upper[0]))
-    chains = [_section_edge(face, plane, frame, t_rib, span, top, name, curve, RIB_CURVE_POINTS)
-              for curve, face, top in ((upper, top_inner, True), (lower, bottom_upper, False))]
+    chains = [
+        _section_edge(face, plane, frame, t_rib, span, top, name, curve, RIB_CURVE_POINTS)
+        for curve, face, top in ((upper, top_inner, True), (lower, bottom_upper, False))
+    ]
     for other in ((side - 1) % 4, (side + 1) % 4):
         # ribs 0 and 2 run to the outer faces of ribs 1 and 3, which stop at their inner faces
         inset = 0.0 if side % 2 == 0 else t_rib
@@ -307,8 +472,15 @@ def _corner_angle(samples: np.ndarray, corner: int) -> float:
     return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
 
 
-def _stiffener(name: str, corner: int, planes: np.ndarray, top_outer: TrimmedFace,
-               top_inner: TrimmedFace, bottom_upper: TrimmedFace, payload: dict) -> dict:
+def _stiffener(
+    name: str,
+    corner: int,
+    planes: np.ndarray,
+    top_outer: TrimmedFace,
+    top_inner: TrimmedFace,
+    bottom_upper: TrimmedFace,
+    payload: dict,
+) -> dict:
     """The corner stiffener at ``corner`` (see the module docstring)."""
     offset, t_stf, t_rib = payload["stiffener_offset"], payload["t_stf"], payload["t_rib"]
     before, after = (corner - 1) % 4, corner
@@ -336,12 +508,24 @@ def _stiffener(name: str, corner: int, planes: np.ndarray, top_outer: TrimmedFac
 _CORNER_UV = ((0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0))
 
 
-def _plate(name: str, kind: str, chains: list[np.ndarray], frame: np.ndarray,
-           thickness: float, plane: np.ndarray, holes: list) -> dict:
+def _plate(
+    name: str,
+    kind: str,
+    chains: list[np.ndarray],
+    frame: np.ndarray,
+    thickness: float,
+    plane: np.ndarray,
+    holes: list,
+) -> dict:
     top, bottom = (_drop_duplicates(chain, closed=False) for chain in chains)
     outline = _drop_duplicates(np.r_[top, bottom[::-1]])
-    solid = occ.prism([top, np.array([top[-1], bottom[-1]]), bottom[::-1],
-                       np.array([bottom[0], top[0]])], frame, thickness, name, holes)
+    solid = occ.prism(
+        [top, np.array([top[-1], bottom[-1]]), bottom[::-1], np.array([bottom[0], top[0]])],
+        frame,
+        thickness,
+        name,
+        holes,
+    )
     if polygon_area(outline) < 0:
         outline = outline[::-1]
     # both plate faces must be flat: every point of the edges bounding the two faces (the
@@ -352,18 +536,35 @@ def _plate(name: str, kind: str, chains: list[np.ndarray], frame: np.ndarray,
         if abs(dist[-1] - dist[0]) > thickness / 2:
             continue
         flatness = max(flatness, float(np.minimum(np.abs(dist), np.abs(dist - thickness)).max()))
-    net = abs(polygon_area(outline)) - sum(np.pi * d ** 2 / 4 for _, d in holes)
-    return {"id": name, "kind": kind, "thickness": thickness,
-            "volume": occ.volume(solid, adaptive=False), "area": float(net),
-            "brep": occ.to_brep(solid), "outline": outline, "frame": frame,
-            "holes": [Hole((float(c[0]), float(c[1])), float(d), "bolt") for c, d in holes],
-            "valid": occ.is_valid(solid), "planarity": flatness, "plane": plane,
-            "clash_shape": ("plate", outline, frame, thickness)}
+    net = abs(polygon_area(outline)) - sum(np.pi * d**2 / 4 for _, d in holes)
+    return {
+        "id": name,
+        "kind": kind,
+        "thickness": thickness,
+        "volume": occ.volume(solid, adaptive=False),
+        "area": float(net),
+        "brep": occ.to_brep(solid),
+        "outline": outline,
+        "frame": frame,
+        "holes": [Hole((float(c[0]), float(c[1])), float(d), "bolt") for c, d in holes],
+        "valid": occ.is_valid(solid),
+        "planarity": flatness,
+        "plane": plane,
+        "clash_shape": ("plate", outline, frame, thickness),
+    }
 
 
-def _section_edge(face: TrimmedFace, plane: np.ndarray, frame: np.ndarray, thickness: float,
-                  span: float, top: bool, name: str, edge: np.ndarray | None = None,
-                  points: int = STIFFENER_POINTS) -> np.ndarray:
+def _section_edge(
+    face: TrimmedFace,
+    plane: np.ndarray,
+    frame: np.ndarray,
+    thickness: float,
+    span: float,
+    top: bool,
+    name: str,
+    edge: np.ndarray | None = None,
+    points: int = STIFFENER_POINTS,
+) -> np.ndarray:
     """(n, 2) float: a plate's edge against a sheet face, in the plate frame: the face's
     sections with the plate's two faces (``edge (m, 3)``: the face's own boundary in the
     plate's plane, used instead of the section there), keeping per station the one the plate
@@ -375,8 +576,9 @@ def _section_edge(face: TrimmedFace, plane: np.ndarray, frame: np.ndarray, thick
         if shift == 0.0 and edge is not None:
             points_3d = edge
         else:
-            points_3d = occ.plane_section(face.surface, np.r_[plane[:3], plane[3] + shift],
-                                          name=name)
+            points_3d = occ.plane_section(
+                face.surface, np.r_[plane[:3], plane[3] + shift], name=name
+            )
         local = (np.c_[points_3d, np.ones(len(points_3d))] @ np.linalg.inv(frame).T)[:, :2]
         keep = (local[:, 0] > -span) & (local[:, 0] < 2 * span)
         local = local[keep][np.argsort(local[keep][:, 0])]
@@ -401,8 +603,15 @@ def _section_edge(face: TrimmedFace, plane: np.ndarray, frame: np.ndarray, thick
     return np.c_[xs, sign * pick.reduce([sign * h for h in heights])]
 
 
-def _trim_chains(chains: list[np.ndarray], frame: np.ndarray, plane: np.ndarray, inset: float,
-                 thickness: float, name: str, other: int) -> list[np.ndarray]:
+def _trim_chains(
+    chains: list[np.ndarray],
+    frame: np.ndarray,
+    plane: np.ndarray,
+    inset: float,
+    thickness: float,
+    name: str,
+    other: int,
+) -> list[np.ndarray]:
     """Cut both edge chains of a plate (extruded ``thickness`` along the frame's z) where the
     whole plate thickness stays ``inset`` mm inside ``plane`` (normal into the panel)."""
     a, b, c = (plane[:3] @ frame[:3, i] for i in range(3))
@@ -413,8 +622,10 @@ def _trim_chains(chains: list[np.ndarray], frame: np.ndarray, plane: np.ndarray,
     limit = plane[3] + inset - plane[:3] @ frame[:3, 3] - min(0.0, c * thickness)
     chains = [clip_polyline(chain, np.array([a, b]), limit) for chain in chains]
     if min(len(chain) for chain in chains) < 2:
-        raise KernelError(f"outline of {name} vanished when trimmed at rib {other}; the panel "
-                          f"is too small for its ribs and stiffeners")
+        raise KernelError(
+            f"outline of {name} vanished when trimmed at rib {other}; the panel "
+            f"is too small for its ribs and stiffeners"
+        )
     return chains
 
 
@@ -466,8 +677,9 @@ def _drop_duplicates(points: np.ndarray, closed: bool = True, eps: float = 1e-6)
 # --------------------------------------------------------------------------------------------
 # clearances
 # --------------------------------------------------------------------------------------------
-def _clearance_findings(pid: str, parts: list[dict], bolts: dict[int, np.ndarray],
-                        planes: np.ndarray, payload: dict) -> list[tuple[str, str, str]]:
+def _clearance_findings(
+    pid: str, parts: list[dict], bolts: dict[int, np.ndarray], planes: np.ndarray, payload: dict
+) -> list[tuple[str, str, str]]:
     """Bolt holes that do not fit their rib, access openings that run under a rib or a
     stiffener: ``(code, part id, message)`` each."""
     from shapely.geometry import Point, Polygon
@@ -483,10 +695,17 @@ def _clearance_findings(pid: str, parts: list[dict], bolts: dict[int, np.ndarray
         for hole in rib["holes"]:
             margin = outline.exterior.distance(Point(hole.centre)) - hole.diameter / 2
             if not outline.contains(Point(hole.centre)) or margin < d_bolt / 2:
-                findings.append(("bolt-clearance", rib["id"],
-                                 (f"bolt hole at {np.round(hole.centre, 1).tolist()} is "
-                                 f"{margin:.1f} mm from the rib edge (needs {d_bolt / 2:g} mm); "
-                                 "lower the bolt edge distance or raise the rib height")))
+                findings.append(
+                    (
+                        "bolt-clearance",
+                        rib["id"],
+                        (
+                            f"bolt hole at {np.round(hole.centre, 1).tolist()} is "
+                            f"{margin:.1f} mm from the rib edge (needs {d_bolt / 2:g} mm); "
+                            "lower the bolt edge distance or raise the rib height"
+                        ),
+                    )
+                )
     radius = payload["bolt"]["access_diameter"] / 2
     t_rib = payload["t_rib"]
     for sheet in (p for p in parts if p["kind"].startswith("sheet")):
@@ -494,9 +713,17 @@ def _clearance_findings(pid: str, parts: list[dict], bolts: dict[int, np.ndarray
             for side in range(4):
                 clear = centre @ planes[side, :3] - planes[side, 3] - t_rib - radius
                 if clear < ACCESS_MIN_CLEAR:
-                    findings.append(("access-clash", sheet["id"], (f"access opening at "
-                                     f"{np.round(centre, 1).tolist()} runs under "
-                                     f"{pid}-RIB-{side} ({clear:.1f} mm clear)")))
+                    findings.append(
+                        (
+                            "access-clash",
+                            sheet["id"],
+                            (
+                                f"access opening at "
+                                f"{np.round(centre, 1).tolist()} runs under "
+                                f"{pid}-RIB-{side} ({clear:.1f} mm clear)"
+                            ),
+                        )
+                    )
             for part in parts:
                 if part["kind"] != "stiffener":
                     continue
@@ -508,8 +735,16 @@ def _clearance_findings(pid: str, parts: list[dict], bolts: dict[int, np.ndarray
                 dist = centre @ plane[:3] - plane[3]
                 clear = max(-dist, dist - t) - radius
                 if clear < ACCESS_MIN_CLEAR:
-                    findings.append(("access-clash", sheet["id"], (f"access opening at "
-                                     f"{np.round(centre, 1).tolist()} runs under {part['id']} "
-                                     f"({clear:.1f} mm clear); move the stiffener "
-                                     "(stiffener_offset) or the bolts (edge_distance)")))
+                    findings.append(
+                        (
+                            "access-clash",
+                            sheet["id"],
+                            (
+                                f"access opening at "
+                                f"{np.round(centre, 1).tolist()} runs under {part['id']} "
+                                f"({clear:.1f} mm clear); move the stiffener "
+                                "(stiffener_offset) or the bolts (edge_distance)"
+                            ),
+                        )
+                    )
     return findings

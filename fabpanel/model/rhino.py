@@ -9,12 +9,16 @@ Layers (millimetres):
 ``stiffeners``    every corner stiffener's outline, in place
 ``labels``        a text dot with the panel id at each panel's centre
 
+Every panel of the layout is drawn, also one the build stage could not build (its outline and
+label; its surface too unless its developed grid admits no B-spline, which is then logged).
+
 Rhino's knot vectors omit the first and last knot of the clamped vectors OCCT (and the NURBS
 book) use, so ``n + p - 1`` knots are written for ``n`` poles of degree ``p``.
 """
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +26,8 @@ import numpy as np
 from ..data import Model
 from ..errors import KernelError
 from . import occ
+
+log = logging.getLogger(__name__)
 
 #: layer colours (RGBA 0-255), matching the STEP/GLB colours by kind
 LAYERS = {
@@ -33,22 +39,29 @@ LAYERS = {
 }
 
 
-def nurbs_surface(surface):
-    """A ``rhino3dm.NurbsSurface`` equal to an OCCT ``Geom_BSplineSurface`` (non-rational)."""
+def nurbs_surface(surface, origin: np.ndarray | None = None):
+    """A ``rhino3dm.NurbsSurface`` equal to an OCCT ``Geom_BSplineSurface`` (non-rational),
+    moved by ``origin`` (mm; the local frame's origin, see :mod:`fabpanel.surface.frame`)."""
     import rhino3dm
 
+    ox, oy, oz = (float(v) for v in (origin if origin is not None else np.zeros(3)))
     nu, nv = surface.NbUPoles(), surface.NbVPoles()
     pu, pv = surface.UDegree(), surface.VDegree()
     result = rhino3dm.NurbsSurface.Create(3, False, pu + 1, pv + 1, nu, nv)
-    for knots, sequence in ((result.KnotsU, surface.UKnotSequence()),
-                            (result.KnotsV, surface.VKnotSequence())):
+    for knots, sequence in (
+        (result.KnotsU, surface.UKnotSequence()),
+        (result.KnotsV, surface.VKnotSequence()),
+    ):
         flat = [sequence.Value(i) for i in range(sequence.Lower() + 1, sequence.Upper())]
         for i, value in enumerate(flat):
-            knots[i] = value
+            knots[i] = value  # type: ignore[index]  # rhino3dm stubs lack the knot setter
     for i in range(nu):
         for j in range(nv):
             pole = surface.Pole(i + 1, j + 1)
-            result.Points[i, j] = rhino3dm.Point4d(pole.X(), pole.Y(), pole.Z(), 1.0)
+            # rhino3dm stubs lack the point list's __setitem__ (it exists at runtime)
+            result.Points[i, j] = rhino3dm.Point4d(  # type: ignore[index]
+                pole.X() + ox, pole.Y() + oy, pole.Z() + oz, 1.0
+            )
     if not result.IsValid:
         raise KernelError("NURBS surface for Rhino is not valid")
     return result
@@ -60,7 +73,8 @@ def write_3dm(model: Model, path: str | Path) -> Path:
 
     path = Path(path)
     doc = rhino3dm.File3dm()
-    doc.Settings.ModelUnitSystem = rhino3dm.UnitSystem.Millimeters
+    # rhino3dm stubs declare these properties read-only; they are settable at runtime
+    doc.Settings.ModelUnitSystem = rhino3dm.UnitSystem.Millimeters  # type: ignore[misc]
     layer_index = {}
     for name, colour in LAYERS.items():
         layer = rhino3dm.Layer()
@@ -70,33 +84,47 @@ def write_3dm(model: Model, path: str | Path) -> Path:
 
     def attributes(layer: str, name: str):
         attr = rhino3dm.ObjectAttributes()
-        attr.LayerIndex = layer_index[layer]
-        attr.Name = name
+        attr.LayerIndex = layer_index[layer]  # type: ignore[misc]  # settable (stubs: read-only)
+        attr.Name = name  # type: ignore[misc]  # settable (stubs: read-only)
         return attr
 
     developed = model.developed
+    origin = developed.layout.origin  # written in the design's own frame
+
+    def points(local: np.ndarray):
+        return [rhino3dm.Point3d(*map(float, p)) for p in np.asarray(local) + origin]
+
     for p, pid in enumerate(developed.panel_ids):
-        surface, _ = occ.bspline_surface(developed.samples[p], pid)
-        doc.Objects.AddSurface(nurbs_surface(surface), attributes("panels", pid))
+        try:
+            surface, _ = occ.bspline_surface(developed.samples[p], pid)
+        except KernelError as err:
+            # a panel the build stage could not build may have a degenerate grid
+            log.warning("design.3dm: no surface for %s (%s)", pid, err)
+        else:
+            # rhino3dm stubs omit the optional attributes argument
+            doc.Objects.AddSurface(
+                nurbs_surface(surface, origin),  # type: ignore[call-arg]
+                attributes("panels", pid),
+            )
         ring = np.concatenate([developed.side_samples(p, s)[:-1] for s in range(4)])
-        doc.Objects.AddPolyline(_points(np.r_[ring, ring[:1]]), attributes("outlines", pid))
+        doc.Objects.AddPolyline(points(np.r_[ring, ring[:1]]), attributes("outlines", pid))
         k = developed.samples.shape[1]
         centre = developed.samples[p, k // 2, k // 2]
-        doc.Objects.AddTextDot(pid, rhino3dm.Point3d(*map(float, centre)),
-                               attributes("labels", pid))
+        # rhino3dm stubs omit the optional attributes argument
+        doc.Objects.AddTextDot(
+            pid,
+            points(centre[None])[0],  # type: ignore[call-arg]
+            attributes("labels", pid),
+        )
     for part in model.parts:
         if part.outline is None or part.frame is None:
             continue
-        world = (np.c_[part.outline, np.zeros(len(part.outline)), np.ones(len(part.outline))]
-                 @ part.frame.T)[:, :3]
-        layer = "ribs" if part.kind == "rib" else "stiffeners"
-        doc.Objects.AddPolyline(_points(np.r_[world, world[:1]]), attributes(layer, part.id))
+        world = (
+            np.c_[part.outline, np.zeros(len(part.outline)), np.ones(len(part.outline))]
+            @ part.frame.T
+        )[:, :3]
+        layer_name = "ribs" if part.kind == "rib" else "stiffeners"
+        doc.Objects.AddPolyline(points(np.r_[world, world[:1]]), attributes(layer_name, part.id))
     if not doc.Write(str(path), 8):
         raise KernelError(f"writing {path} failed")
     return path
-
-
-def _points(points: np.ndarray):
-    import rhino3dm
-
-    return [rhino3dm.Point3d(*map(float, p)) for p in points]

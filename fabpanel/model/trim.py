@@ -72,8 +72,14 @@ class TrimmedFace:
         return n / np.linalg.norm(n, axis=1, keepdims=True)
 
 
-def trimmed_face(grid: np.ndarray, normal: np.ndarray, planes: np.ndarray, trim: np.ndarray,
-                 slide_limit: float, name: str = "face") -> TrimmedFace:
+def trimmed_face(
+    grid: np.ndarray,
+    normal: np.ndarray,
+    planes: np.ndarray,
+    trim: np.ndarray,
+    slide_limit: float,
+    name: str = "face",
+) -> TrimmedFace:
     """Interpolate ``grid (k, k, 3)`` and trim it at ``planes (4, 4)`` (unit normals) on the
     sides where ``trim (4,) bool``; ``normal (3,)`` is the outward normal of the panel's middle
     (it fixes ``orient``). A side whose plane does not meet the face, or only after moving the
@@ -96,8 +102,9 @@ def trimmed_face(grid: np.ndarray, normal: np.ndarray, planes: np.ndarray, trim:
     return face
 
 
-def _trimmed_face(grid: np.ndarray, normal: np.ndarray, planes: np.ndarray, trim: np.ndarray,
-                  name: str) -> TrimmedFace:
+def _trimmed_face(
+    grid: np.ndarray, normal: np.ndarray, planes: np.ndarray, trim: np.ndarray, name: str
+) -> TrimmedFace:
     source, _ = occ.bspline_surface(grid, name)
     k = grid.shape[0]
     corners = np.array([_corner(source, c, planes, trim, name) for c in range(4)])
@@ -123,14 +130,24 @@ def _trimmed_face(grid: np.ndarray, normal: np.ndarray, planes: np.ndarray, trim
     # the two interpolants of a noisy grid (one from a faceted mesh) differ by up to 0.1 mm,
     # which is no closer to the developed panel than either: the samples are what it is.
     at_samples = new_grid[::REFIT_DENSITY, ::REFIT_DENSITY].reshape(-1, 3)
-    uniform = np.stack(np.meshgrid(np.linspace(0, 1, k), np.linspace(0, 1, k), indexing="ij"),
-                       axis=-1).reshape(-1, 2)
+    uniform = np.stack(
+        np.meshgrid(np.linspace(0, 1, k), np.linspace(0, 1, k), indexing="ij"), axis=-1
+    ).reshape(-1, 2)
     _, du, dv = occ.surface_derivatives(source, uniform)
-    across = np.cross(du, dv)
-    across /= np.linalg.norm(across, axis=1, keepdims=True)
-    fit = float(np.abs(np.einsum("nd,nd->n", at_samples - grid.reshape(-1, 3), across)).max())
-    slide = np.array([np.linalg.norm(side_rows(new_grid[::REFIT_DENSITY, ::REFIT_DENSITY])[s]
-                                     - side_rows(grid)[s], axis=1).max() for s in range(4)])
+    across_normal = np.cross(du, dv)
+    across_normal /= np.linalg.norm(across_normal, axis=1, keepdims=True)
+    fit = float(
+        np.abs(np.einsum("nd,nd->n", at_samples - grid.reshape(-1, 3), across_normal)).max()
+    )
+    slide = np.array(
+        [
+            np.linalg.norm(
+                side_rows(new_grid[::REFIT_DENSITY, ::REFIT_DENSITY])[s] - side_rows(grid)[s],
+                axis=1,
+            ).max()
+            for s in range(4)
+        ]
+    )
     _, du, dv = occ.surface_derivatives(surface, np.array([[0.5, 0.5]]))
     orient = 1.0 if float(np.cross(du[0], dv[0]) @ normal) >= 0 else -1.0
     return TrimmedFace(surface, orient, fit, slide, np.zeros(4, bool))
@@ -157,13 +174,18 @@ def coons(sides: list[np.ndarray], s: np.ndarray, t: np.ndarray) -> np.ndarray:
     left, right = at(sides[3][::-1], t), at(sides[1], t)
     c00, c10, c11, c01 = sides[0][0], sides[1][0], sides[2][0], sides[3][0]
     S, T = s[:, None, None], t[None, :, None]
-    return ((1 - S) * left[None] + S * right[None] + (1 - T) * bottom[:, None]
-            + T * top[:, None]
-            - ((1 - S) * (1 - T) * c00 + S * (1 - T) * c10 + S * T * c11 + (1 - S) * T * c01))
+    return (
+        (1 - S) * left[None]
+        + S * right[None]
+        + (1 - T) * bottom[:, None]
+        + T * top[:, None]
+        - ((1 - S) * (1 - T) * c00 + S * (1 - T) * c10 + S * T * c11 + (1 - S) * T * c01)
+    )
 
 
-def _onto_plane(surface, uv: np.ndarray, across: int, plane: np.ndarray, what: str,
-                side: int) -> np.ndarray:
+def _onto_plane(
+    surface, uv: np.ndarray, across: int, plane: np.ndarray, what: str, side: int
+) -> np.ndarray:
     """Move each parameter pair along ``across`` until the surface point lies in the plane."""
     uv = uv.copy()
     for _ in range(NEWTON_ITERATIONS):
@@ -175,8 +197,11 @@ def _onto_plane(surface, uv: np.ndarray, across: int, plane: np.ndarray, what: s
         if np.any(np.abs(slope) < 1e-9):
             break
         uv[:, across] -= np.clip(f / slope, -0.25, 0.25)
-    raise _TrimFailed(f"{what}: the rib plane does not meet the sheet near its edge "
-                      "(plane nearly tangent to the sheet)", (side,))
+    raise _TrimFailed(
+        f"{what}: the rib plane does not meet the sheet near its edge "
+        "(plane nearly tangent to the sheet)",
+        (side,),
+    )
 
 
 def _corner(surface, corner: int, planes: np.ndarray, trim: np.ndarray, name: str) -> np.ndarray:
@@ -196,12 +221,14 @@ def _corner(surface, corner: int, planes: np.ndarray, trim: np.ndarray, name: st
         f = np.array([point[0] @ planes[s][:3] - planes[s][3] for s in active])
         if np.abs(f).max() < PLANE_TOLERANCE:
             return uv
-        jac = np.array([[(du[0] if axis == 0 else dv[0]) @ planes[s][:3] for axis in free]
-                        for s in active])
+        jac = np.array(
+            [[(du[0] if axis == 0 else dv[0]) @ planes[s][:3] for axis in free] for s in active]
+        )
         try:
             step = np.linalg.solve(jac, f)
         except np.linalg.LinAlgError:
             break
         uv[free] -= np.clip(step, -0.25, 0.25)
-    raise _TrimFailed(f"{name}: corner {corner} could not be placed on its rib planes",
-                      tuple(active))
+    raise _TrimFailed(
+        f"{name}: corner {corner} could not be placed on its rib planes", tuple(active)
+    )

@@ -14,6 +14,8 @@ Methods:
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from ..data import PanelLayout, Surface
 from ..job import Job
 from ..surface import SurfaceQuery
@@ -39,6 +41,10 @@ def panelize(surface: Surface, job: Job, query: SurfaceQuery | None = None) -> P
     """
     check_panel_count(surface, job)
     query = query or SurfaceQuery(surface)
+    return replace(_layout_by_method(surface, job, query), origin=surface.origin)
+
+
+def _layout_by_method(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
     method = choose_method(surface, job)
     if method == "grid":
         return grid_panelize(surface, job, query)

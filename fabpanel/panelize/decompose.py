@@ -37,12 +37,16 @@ def outward_normal(surface: Surface) -> np.ndarray:
 def _check_size(surface: Surface, target: float) -> None:
     size = float(np.linalg.norm(np.ptp(surface.vertices, axis=0)))
     if target > size:
-        raise GeometryError(f"{surface.source.name}: the panel size {target:g} mm is larger than "
-                            f"the surface ({size:.0f} mm across); lower [panelize] panel_size")
+        raise GeometryError(
+            f"{surface.source.name}: the panel size {target:g} mm is larger than "
+            f"the surface ({size:.0f} mm across); lower [panelize] panel_size"
+        )
     if target < size / 1000:
-        raise GeometryError(f"{surface.source.name}: the panel size {target:g} mm is below "
-                            f"1/1000 of the surface ({size:.0f} mm across), which would give "
-                            f"millions of panels; raise [panelize] panel_size")
+        raise GeometryError(
+            f"{surface.source.name}: the panel size {target:g} mm is below "
+            f"1/1000 of the surface ({size:.0f} mm across), which would give "
+            f"millions of panels; raise [panelize] panel_size"
+        )
 
 
 def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
@@ -55,8 +59,10 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
     settings = job.panelize
     target = settings.panel_size
     if not surface.boundary_loops:
-        raise GeometryError(f"{surface.source.name}: the surface is closed (no boundary); the "
-                            f"skeleton method needs an open surface, cut it open first")
+        raise GeometryError(
+            f"{surface.source.name}: the surface is closed (no boundary); the "
+            f"skeleton method needs an open surface, cut it open first"
+        )
     _check_size(surface, target)
     loops3d = [surface.vertices[loop] for loop in surface.boundary_loops]
     frame = plane_frame(np.concatenate(loops3d), outward_normal(surface))
@@ -67,17 +73,20 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
     features = None
     if settings.singular_points:
         scale = length_scale(job.input.units or "mm")
-        features = to_plane(np.asarray(settings.singular_points, dtype=float) * scale, frame)
-    coarse = skeleton_layout(loops2d, corner_angle=settings.corner_angle,
-                             point_features=features)
+        # given in the design's coordinates and the input's units; the surface is local
+        points = np.asarray(settings.singular_points, dtype=float) * scale - surface.origin
+        features = to_plane(points, frame)
+    coarse = skeleton_layout(loops2d, corner_angle=settings.corner_angle, point_features=features)
 
     def arc_length(curve: np.ndarray) -> np.ndarray:
         """cumulative length on the surface of a plane polyline's points"""
         points, _ = lift(curve, surface, frame, query)
         return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
 
-    lengths = {key: float(arc_length(refine_polyline(curve, ARC_LENGTH_POINTS))[-1])
-               for key, curve in coarse.edge_curves.items()}
+    lengths = {
+        key: float(arc_length(refine_polyline(curve, ARC_LENGTH_POINTS))[-1])
+        for key, curve in coarse.edge_curves.items()
+    }
     extra = np.zeros(0, dtype=int)
     for round_ in range(PLATE_ROUNDS + 1):
         if settings.density == "catmull-clark":
@@ -102,8 +111,9 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
             raise GeometryError(
                 f"{surface.source.name}: the skeleton layout folds over at "
                 f"{smoothing['folded_after']} panel corners even after untangling; use "
-                f"[panelize] method = \"layout\" with a quad mesh drawn for the surface, or "
-                f"\"grid\" for four-sided parts")
+                f'[panelize] method = "layout" with a quad mesh drawn for the surface, or '
+                f'"grid" for four-sided parts'
+            )
         vertices, _ = lift(vertices2d, surface, frame, query)
         oversize = _oversize_panels(vertices, quads, job)
         if not oversize.any():
@@ -111,37 +121,57 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
         if settings.density == "catmull-clark":
             continue
         extra = _more_divisions(coarse, counts, dense.face_of_quad, oversize, extra)
-    layout = PanelLayout(vertices=vertices, quads=quads,
-                         panel_ids=tuple(f"P{i + 1:03d}" for i in range(len(quads))),
-                         method="skeleton")
+    layout = PanelLayout(
+        vertices=vertices,
+        quads=quads,
+        panel_ids=tuple(f"P{i + 1:03d}" for i in range(len(quads))),
+        method="skeleton",
+    )
     metrics, found = layout_metrics(layout, query, target, job.cutting, loops3d)
-    metrics["coarse"] = {"vertices": len(coarse.vertices), "quads": len(coarse.quads),
-                         **coarse.info}
+    metrics["coarse"] = {
+        "vertices": len(coarse.vertices),
+        "quads": len(coarse.quads),
+        **coarse.info,
+    }
     metrics["plate_rounds"] = round_
     metrics["relaxation"] = smoothing
     log.info("skeleton panelisation: %d coarse quads -> %d panels", len(coarse.quads), len(quads))
-    return PanelLayout(vertices=vertices, quads=quads, panel_ids=layout.panel_ids,
-                       method="skeleton", metrics=metrics, issues=found)
+    return PanelLayout(
+        vertices=vertices,
+        quads=quads,
+        panel_ids=layout.panel_ids,
+        method="skeleton",
+        metrics=metrics,
+        issues=found,
+    )
 
 
 def _oversize_panels(vertices: np.ndarray, quads: np.ndarray, job: Job) -> np.ndarray:
     cutting = job.cutting
-    usable = np.sort([cutting.plate_length - 2 * cutting.plate_margin,
-                      cutting.plate_width - 2 * cutting.plate_margin])[::-1]
+    usable = np.sort(
+        [
+            cutting.plate_length - 2 * cutting.plate_margin,
+            cutting.plate_width - 2 * cutting.plate_margin,
+        ]
+    )[::-1]
     extents = np.sort(panel_extents(vertices[quads]), axis=1)[:, ::-1]
     return ~np.all(extents <= usable, axis=1)
 
 
-def _more_divisions(coarse, counts: np.ndarray, face_of_quad: np.ndarray, oversize: np.ndarray,
-                    extra: np.ndarray) -> np.ndarray:
+def _more_divisions(
+    coarse, counts: np.ndarray, face_of_quad: np.ndarray, oversize: np.ndarray, extra: np.ndarray
+) -> np.ndarray:
     """One more division for both strips through every coarse face holding an oversize panel."""
     from .densify import collect_strips, quad_edges
 
     strip_of_edge, _ = collect_strips(coarse.quads)
     edges, edge_of_side = quad_edges(coarse.quads)
     faces = np.unique(face_of_quad[oversize])
-    strips = {strip_of_edge[tuple(int(v) for v in edges[e])]
-              for face in faces for e in edge_of_side[face, :2]}
+    strips = {
+        strip_of_edge[tuple(int(v) for v in edges[e])]
+        for face in faces
+        for e in edge_of_side[face, :2]
+    }
     extra = extra.copy() if extra.size else np.zeros(len(counts), dtype=int)
     extra[sorted(strips)] += 1
     return extra

@@ -85,7 +85,7 @@ def collect_strips(quads: np.ndarray) -> tuple[dict, list[Strip]]:
     graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(e, e))
     n_strips, label = connected_components(graph, directed=False)
     # ordered walk per strip (a loop over coarse edges; coarse meshes have a few hundred)
-    links: list[list[tuple[int, int]]] = [[] for _ in range(e)]   # edge -> [(quad, opposite)]
+    links: list[list[tuple[int, int]]] = [[] for _ in range(e)]  # edge -> [(quad, opposite)]
     for q in range(len(quads)):
         for s in range(4):
             links[eos[q, s]].append((q, int(eos[q, (s + 2) % 4])))
@@ -94,20 +94,20 @@ def collect_strips(quads: np.ndarray) -> tuple[dict, list[Strip]]:
     order = np.argsort(label, kind="stable")
     starts = np.searchsorted(label[order], np.arange(n_strips))
     for strip in range(n_strips):
-        members = order[starts[strip]:(starts[strip + 1] if strip + 1 < n_strips else e)]
+        members = order[starts[strip] : (starts[strip + 1] if strip + 1 < n_strips else e)]
         ends = [m for m in members if len(links[m]) == 1]
         first = int(ends[0]) if ends else int(members[0])
         walk_edges, walk_quads = [first], []
-        came_from = -1            # index into links[current] of the link we arrived through
+        came_from = -1  # index into links[current] of the link we arrived through
         current = first
         while True:
             options = [k for k in range(len(links[current])) if k != came_from]
             if not options:
-                break             # reached the other boundary end
+                break  # reached the other boundary end
             quad, nxt = links[current][options[0]]
             walk_quads.append(quad)
             if nxt == first and not ends:
-                break             # closed ring
+                break  # closed ring
             # the link of `nxt` that leads back through the same quad (and to `current`)
             back = [k for k, (q2, o2) in enumerate(links[nxt]) if q2 == quad and o2 == current]
             came_from = back[0]
@@ -121,13 +121,15 @@ def collect_strips(quads: np.ndarray) -> tuple[dict, list[Strip]]:
 
 def edge_lengths_2d(layout: CoarseLayout) -> dict:
     """Length of every coarse edge's polyline in the plane, mm: dict ``(a, b) -> float``."""
-    return {key: float(np.linalg.norm(np.diff(curve, axis=0), axis=1).sum())
-            for key, curve in layout.edge_curves.items()}
+    return {
+        key: float(np.linalg.norm(np.diff(curve, axis=0), axis=1).sum())
+        for key, curve in layout.edge_curves.items()
+    }
 
 
-def strip_counts(layout: CoarseLayout,
-                 lengths: Mapping | Callable | np.ndarray | None,
-                 target: float) -> np.ndarray:
+def strip_counts(
+    layout: CoarseLayout, lengths: Mapping | Callable | np.ndarray | None, target: float
+) -> np.ndarray:
     """Divisions per strip: ``max(1, ceil(longest edge of the strip / target))``.
 
     layout : the coarse layout; strips as :func:`collect_strips` ``(layout.quads)`` orders them.
@@ -152,8 +154,9 @@ def strip_counts(layout: CoarseLayout,
     else:
         values = np.asarray(lengths, dtype=float).ravel()
         if len(values) != len(keys):
-            raise GeometryError(f"strip_counts: {len(values)} edge lengths for {len(keys)} "
-                                f"coarse edges")
+            raise GeometryError(
+                f"strip_counts: {len(values)} edge lengths for {len(keys)} coarse edges"
+            )
     label = np.array([strip_of_edge[k] for k in keys], dtype=np.int64)
     longest = np.zeros(len(strips))
     np.maximum.at(longest, label, values)
@@ -201,8 +204,9 @@ def signed_quad_areas(vertices2d: np.ndarray, quads: np.ndarray) -> np.ndarray:
 
 def _grid_quads(ids: np.ndarray) -> np.ndarray:
     """(a-1)(b-1) quads of an (a, b) id grid, corner order (i,j) (i+1,j) (i+1,j+1) (i,j+1)."""
-    return np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]],
-                    axis=-1).reshape(-1, 4)
+    return np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], axis=-1).reshape(
+        -1, 4
+    )
 
 
 def refine_polyline(curve: np.ndarray, points: int) -> np.ndarray:
@@ -211,8 +215,9 @@ def refine_polyline(curve: np.ndarray, points: int) -> np.ndarray:
     curve = np.asarray(curve, dtype=float)
     pieces = max(1, int(np.ceil((points - 1) / max(len(curve) - 1, 1))))
     t = np.arange(pieces)[None, :, None] / pieces
-    body = (curve[:-1, None, :] + t * (curve[1:, None, :] - curve[:-1, None, :])).reshape(-1,
-                                                                                 curve.shape[1])
+    body = (curve[:-1, None, :] + t * (curve[1:, None, :] - curve[:-1, None, :])).reshape(
+        -1, curve.shape[1]
+    )
     return np.vstack([body, curve[-1:]])
 
 
@@ -224,14 +229,18 @@ def resample_by_measure(curve: np.ndarray, cumulative: np.ndarray, count: int) -
     """
     cumulative = np.asarray(cumulative, dtype=float)
     targets = np.linspace(cumulative[0], cumulative[-1], count)
-    out = np.stack([np.interp(targets, cumulative, curve[:, c]) for c in range(curve.shape[1])],
-                   axis=1)
+    out = np.stack(
+        [np.interp(targets, cumulative, curve[:, c]) for c in range(curve.shape[1])], axis=1
+    )
     out[0], out[-1] = curve[0], curve[-1]
     return out
 
 
-def densify(layout: CoarseLayout, counts: np.ndarray | int,
-            arc_length: Callable[[np.ndarray], np.ndarray] | None = None) -> DenseMesh:
+def densify(
+    layout: CoarseLayout,
+    counts: np.ndarray | int,
+    arc_length: Callable[[np.ndarray], np.ndarray] | None = None,
+) -> DenseMesh:
     """Densify a coarse layout per strip (see the module docstring).
 
     layout : the coarse layout (plane, mm).
@@ -285,8 +294,7 @@ def densify(layout: CoarseLayout, counts: np.ndarray | int,
         fixed.append(np.zeros(n - 1, dtype=bool))
         face_of_vertex.append(np.full(n - 1, first_face[e]))
         edge_of_vertex.append(np.full(n - 1, e, dtype=np.int64))
-    face_of_vertex[0][coarse_quads[::-1].ravel()] = np.repeat(
-        np.arange(len(coarse_quads))[::-1], 4)
+    face_of_vertex[0][coarse_quads[::-1].ravel()] = np.repeat(np.arange(len(coarse_quads))[::-1], 4)
     edge_points = np.concatenate(points)
 
     def side(q: int, s: int) -> tuple[np.ndarray, np.ndarray]:
@@ -302,34 +310,47 @@ def densify(layout: CoarseLayout, counts: np.ndarray | int,
     for q in range(len(coarse_quads)):
         (i0, p0), (i1, p1), (i2, p2), (i3, p3) = (side(q, s) for s in range(4))
         a, b = len(i0), len(i1)
-        grid = coons_patch(p0, p1, p2, p3)                      # (a, b, 2)
+        grid = coons_patch(p0, p1, p2, p3)  # (a, b, 2)
         ids = np.empty((a, b), dtype=np.int64)
         ids[:, 0], ids[-1, :], ids[:, -1], ids[0, :] = i0, i1, i2[::-1], i3[::-1]
-        inner = (a - 2) * (b - 2)
-        if inner > 0:
-            ids[1:-1, 1:-1] = np.arange(next_id, next_id + inner).reshape(a - 2, b - 2)
-            next_id += inner
+        n_inner = (a - 2) * (b - 2)
+        if n_inner > 0:
+            ids[1:-1, 1:-1] = np.arange(next_id, next_id + n_inner).reshape(a - 2, b - 2)
+            next_id += n_inner
             points.append(grid[1:-1, 1:-1].reshape(-1, grid.shape[-1]))
-            loop.append(np.full(inner, -1, dtype=np.int64))
-            fixed.append(np.zeros(inner, dtype=bool))
-            face_of_vertex.append(np.full(inner, q, dtype=np.int64))
-            edge_of_vertex.append(np.full(inner, -1, dtype=np.int64))
+            loop.append(np.full(n_inner, -1, dtype=np.int64))
+            fixed.append(np.zeros(n_inner, dtype=bool))
+            face_of_vertex.append(np.full(n_inner, q, dtype=np.int64))
+            edge_of_vertex.append(np.full(n_inner, -1, dtype=np.int64))
         cells = _grid_quads(ids)
         dense_quads.append(cells)
         face_of_quad.append(np.full(len(cells), q, dtype=np.int64))
     vertices = np.concatenate(points)
     quads = np.concatenate(dense_quads)
     areas = signed_quad_areas(vertices, quads)
-    info = {"strips": len(strips), "strip_counts": [int(c) for c in counts],
-            "closed_strips": int(sum(s.closed for s in strips)),
-            "vertices": len(vertices), "quads": len(quads),
-            "inverted_quads": int((areas <= 0).sum())}
+    info = {
+        "strips": len(strips),
+        "strip_counts": [int(c) for c in counts],
+        "closed_strips": int(sum(s.closed for s in strips)),
+        "vertices": len(vertices),
+        "quads": len(quads),
+        "inverted_quads": int((areas <= 0).sum()),
+    }
     if info["inverted_quads"]:
-        log.info("densify: %d dense quads are inverted in the plane (folded Coons patches)",
-                    info["inverted_quads"])
-    return DenseMesh(vertices, quads, np.concatenate(loop), np.concatenate(fixed),
-                     np.concatenate(face_of_vertex), np.concatenate(face_of_quad),
-                     np.concatenate(edge_of_vertex), info)
+        log.info(
+            "densify: %d dense quads are inverted in the plane (folded Coons patches)",
+            info["inverted_quads"],
+        )
+    return DenseMesh(
+        vertices,
+        quads,
+        np.concatenate(loop),
+        np.concatenate(fixed),
+        np.concatenate(face_of_vertex),
+        np.concatenate(face_of_quad),
+        np.concatenate(edge_of_vertex),
+        info,
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -342,23 +363,34 @@ def _catmull_clark_once(vertices, quads, loop_of_vertex, fixed):
     ne = len(edges)
     faces_per_edge = np.bincount(eos.ravel(), minlength=ne)
     boundary_edge = faces_per_edge == 1
-    face_points = vertices[quads].mean(axis=1)                              # (m, d)
+    face_points = vertices[quads].mean(axis=1)  # (m, d)
     # edge points: interior (v0 + v1 + f0 + f1) / 4, boundary the midpoint
-    face_sum = np.stack([np.bincount(eos.ravel(), weights=np.repeat(face_points[:, c], 4),
-                                     minlength=ne) for c in range(d)], axis=1)
+    face_sum = np.stack(
+        [
+            np.bincount(eos.ravel(), weights=np.repeat(face_points[:, c], 4), minlength=ne)
+            for c in range(d)
+        ],
+        axis=1,
+    )
     mid = 0.5 * (vertices[edges[:, 0]] + vertices[edges[:, 1]])
-    edge_points = np.where(boundary_edge[:, None], mid,
-                           0.5 * mid + 0.5 * face_sum / np.maximum(faces_per_edge, 1)[:, None])
+    edge_points = np.where(
+        boundary_edge[:, None],
+        mid,
+        0.5 * mid + 0.5 * face_sum / np.maximum(faces_per_edge, 1)[:, None],
+    )
 
     def scatter(index, values, length):
-        return np.stack([np.bincount(index, weights=values[:, c], minlength=length)
-                         for c in range(d)], axis=1)
+        return np.stack(
+            [np.bincount(index, weights=values[:, c], minlength=length) for c in range(d)], axis=1
+        )
 
     # interior vertices: (F + 2R + (k - 3) P) / k with k the valence
     valence = np.bincount(edges.ravel(), minlength=n).astype(float)
     faces_at = np.bincount(quads.ravel(), minlength=n).astype(float)
-    f_avg = scatter(quads.ravel(), np.repeat(face_points, 4, axis=0), n) / np.maximum(
-        faces_at, 1)[:, None]
+    f_avg = (
+        scatter(quads.ravel(), np.repeat(face_points, 4, axis=0), n)
+        / np.maximum(faces_at, 1)[:, None]
+    )
     r_avg = scatter(edges.ravel(), np.repeat(mid, 2, axis=0), n) / np.maximum(valence, 1)[:, None]
     k = np.maximum(valence, 1)[:, None]
     new_vertices = (f_avg + 2 * r_avg + (k - 3) * vertices) / k
@@ -379,15 +411,20 @@ def _catmull_clark_once(vertices, quads, loop_of_vertex, fixed):
     for c in range(4):
         out.append(np.stack([quads[:, c], e_ids[:, c], f_ids, e_ids[:, (c - 1) % 4]], axis=1))
     new_quads = np.stack(out, axis=1).reshape(-1, 4)
-    edge_loop = np.where(boundary_edge, np.maximum(loop_of_vertex[edges[:, 0]],
-                                                   loop_of_vertex[edges[:, 1]]), -1)
-    return (np.concatenate([new_vertices, edge_points, face_points]), new_quads,
-            np.concatenate([loop_of_vertex, edge_loop, np.full(m, -1)]),
-            np.concatenate([fixed, np.zeros(ne + m, dtype=bool)]))
+    edge_loop = np.where(
+        boundary_edge, np.maximum(loop_of_vertex[edges[:, 0]], loop_of_vertex[edges[:, 1]]), -1
+    )
+    return (
+        np.concatenate([new_vertices, edge_points, face_points]),
+        new_quads,
+        np.concatenate([loop_of_vertex, edge_loop, np.full(m, -1)]),
+        np.concatenate([fixed, np.zeros(ne + m, dtype=bool)]),
+    )
 
 
-def catmull_clark(vertices, quads=None, levels: int = 1, *, loop_of_vertex=None,
-                  fixed=None) -> DenseMesh:
+def catmull_clark(
+    vertices, quads=None, levels: int = 1, *, loop_of_vertex=None, fixed=None
+) -> DenseMesh:
     """Catmull-Clark subdivision of a quad mesh with boundary (Catmull & Clark 1978).
 
     Either ``catmull_clark(vertices (n, d), quads (m, 4), levels)`` or
@@ -410,8 +447,11 @@ def catmull_clark(vertices, quads=None, levels: int = 1, *, loop_of_vertex=None,
     vertices = np.asarray(vertices, dtype=float)
     quads = np.asarray(quads, dtype=np.int64).reshape(-1, 4)
     n = len(vertices)
-    loop_of_vertex = (np.full(n, -1, dtype=np.int64) if loop_of_vertex is None
-                      else np.asarray(loop_of_vertex, dtype=np.int64))
+    loop_of_vertex = (
+        np.full(n, -1, dtype=np.int64)
+        if loop_of_vertex is None
+        else np.asarray(loop_of_vertex, dtype=np.int64)
+    )
     fixed = np.zeros(n, dtype=bool) if fixed is None else np.asarray(fixed, dtype=bool)
     if levels < 0:
         raise GeometryError(f"catmull_clark: levels must be >= 0, got {levels}")
@@ -441,12 +481,14 @@ def catmull_clark(vertices, quads=None, levels: int = 1, *, loop_of_vertex=None,
     info = {"levels": int(levels), "vertices": len(v), "quads": len(q)}
     if v.shape[1] == 2:
         info["inverted_quads"] = int((signed_quad_areas(v, q) <= 0).sum())
-    return DenseMesh(v, q, lv, fx, face_of_vertex, face_of_quad,
-                     np.full(len(v), -1, dtype=np.int64), info)
+    return DenseMesh(
+        v, q, lv, fx, face_of_vertex, face_of_quad, np.full(len(v), -1, dtype=np.int64), info
+    )
 
 
-def _snap_to_loops(vertices: np.ndarray, loop_of_vertex: np.ndarray, fixed: np.ndarray,
-                   loops: tuple) -> np.ndarray:
+def _snap_to_loops(
+    vertices: np.ndarray, loop_of_vertex: np.ndarray, fixed: np.ndarray, loops: tuple
+) -> np.ndarray:
     """Boundary vertices (not fixed) moved to the closest point of their loop polyline."""
     from ..geom.polygon import closest_on_polylines
 
@@ -455,6 +497,7 @@ def _snap_to_loops(vertices: np.ndarray, loop_of_vertex: np.ndarray, fixed: np.n
     for k, loop in enumerate(loops):
         mine = snap & (loop_of_vertex == k)
         if mine.any():
-            out[mine] = closest_on_polylines(vertices[mine], np.asarray(loop, dtype=float),
-                                             closed=True)
+            out[mine] = closest_on_polylines(
+                vertices[mine], np.asarray(loop, dtype=float), closed=True
+            )
     return out

@@ -25,7 +25,7 @@ def estimated_panels(surface: Surface, job: Job) -> float:
     settings = job.panelize
     if settings.grid_u and settings.grid_v:
         return float(settings.grid_u * settings.grid_v)
-    return surface.area / settings.panel_size ** 2
+    return surface.area / settings.panel_size**2
 
 
 def _in_input_units(values_mm: np.ndarray, units: str) -> str:
@@ -62,13 +62,15 @@ def check_panel_count(surface: Surface, job: Job) -> float:
             f"{name}: {extent} ({surface.area / 1e6:.4g} m2) needs about {estimate:.0f} panels "
             f"of {panel}, more than [panelize] max_panels = {limit}; "
             f"{_unit_hint(surface, larger=False)}choose a larger --panel-size (or raise "
-            f"max_panels)")
+            f"max_panels)"
+        )
     if estimate < 1.0:
         largest = math.sqrt(surface.area)
         raise InputError(
             f"{name}: {extent} ({surface.area / 1e6:.4g} m2) is smaller than one panel of "
             f"{panel}; {_unit_hint(surface, larger=True)}choose a --panel-size of at most "
-            f"{largest / 1000:.3g} m")
+            f"{largest / 1000:.3g} m"
+        )
     return estimate
 
 

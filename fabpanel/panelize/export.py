@@ -25,15 +25,23 @@ def write_layout_obj(layout: PanelLayout, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     ids = list(layout.panel_ids)
-    lines = [("# fabpanel panel layout: one quad face per panel, corners counter-clockwise "
-              "seen from the outer side"),
-             "# units: mm",
-             f"# method: {layout.method}",
-             f"# panels: {len(ids)}, vertices: {len(layout.vertices)}",
-             "# panel ids in face order:"]
-    lines += ["#   " + " ".join(ids[i:i + IDS_PER_LINE]) for i in range(0, len(ids), IDS_PER_LINE)]
+    lines = [
+        (
+            "# fabpanel panel layout: one quad face per panel, corners counter-clockwise "
+            "seen from the outer side"
+        ),
+        "# units: mm",
+        f"# method: {layout.method}",
+        f"# panels: {len(ids)}, vertices: {len(layout.vertices)}",
+        "# panel ids in face order:",
+    ]
+    lines += [
+        "#   " + " ".join(ids[i : i + IDS_PER_LINE]) for i in range(0, len(ids), IDS_PER_LINE)
+    ]
     lines.append("o panels")
-    lines += [f"v {x:.9f} {y:.9f} {z:.9f}" for x, y, z in layout.vertices.tolist()]
+    # in the design's own frame (the layout is local), so the file reads back as a user layout
+    world = layout.vertices + layout.origin
+    lines += [f"v {x:.9f} {y:.9f} {z:.9f}" for x, y, z in world.tolist()]
     for pid, quad in zip(ids, layout.quads.tolist()):
         lines.append(f"# {pid}")
         lines.append("f " + " ".join(str(i + 1) for i in quad))

@@ -32,7 +32,8 @@ def grid_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayou
         raise GeometryError(
             f"{surface.source.name}: the grid method needs a four-sided surface with one boundary "
             f"loop, this one has {len(surface.boundary_loops)} (closed surfaces have none, "
-            f"openings add loops); use [panelize] method = \"skeleton\" or split the surface")
+            f'openings add loops); use [panelize] method = "skeleton" or split the surface'
+        )
     if surface.brep is not None and query.face_count == 1:
         vertices, quads, parameters = _parameter_grid(query, settings)
     else:
@@ -40,13 +41,21 @@ def grid_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayou
         parameters = None
     quads, parameters = _orient_outwards(vertices, quads, parameters, query)
     ids = tuple(f"P{i + 1:03d}" for i in range(len(quads)))
-    layout = PanelLayout(vertices=vertices, quads=quads, panel_ids=ids, method="grid",
-                         parameters=parameters)
+    layout = PanelLayout(
+        vertices=vertices, quads=quads, panel_ids=ids, method="grid", parameters=parameters
+    )
     loops = [surface.vertices[loop] for loop in surface.boundary_loops]
     metrics, issues = layout_metrics(layout, query, settings.panel_size, job.cutting, loops)
     log.info("grid panelisation: %d panels", len(quads))
-    return PanelLayout(vertices=vertices, quads=quads, panel_ids=ids, method="grid",
-                       parameters=parameters, metrics=metrics, issues=issues)
+    return PanelLayout(
+        vertices=vertices,
+        quads=quads,
+        panel_ids=ids,
+        method="grid",
+        parameters=parameters,
+        metrics=metrics,
+        issues=issues,
+    )
 
 
 def is_four_sided(surface: Surface, corner_angle: float) -> bool:
@@ -61,13 +70,12 @@ def is_four_sided(surface: Surface, corner_angle: float) -> bool:
 
 
 def _divisions(length: float, target: float, explicit: int | None) -> int:
-    return explicit if explicit is not None else max(1, int(round(length / target)))
+    return explicit if explicit is not None else max(1, round(length / target))
 
 
 def _arc_length_parameters(curve: np.ndarray, t: np.ndarray, count: int) -> np.ndarray:
     """Parameters that split a densely sampled curve (points ``curve`` at ``t``) evenly."""
-    cumulative = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(curve, axis=0),
-                                                                 axis=1))])
+    cumulative = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(curve, axis=0), axis=1))])
     return np.interp(np.linspace(0.0, cumulative[-1], count + 1), cumulative, t)
 
 
@@ -109,21 +117,24 @@ def boundary_corners(points: np.ndarray, corner_angle: float) -> np.ndarray:
     incoming -= np.outer(incoming @ normal, normal)
     outgoing -= np.outer(outgoing @ normal, normal)
     cos = np.einsum("ij,ij->i", incoming, outgoing) / (
-        np.linalg.norm(incoming, axis=1) * np.linalg.norm(outgoing, axis=1))
+        np.linalg.norm(incoming, axis=1) * np.linalg.norm(outgoing, axis=1)
+    )
     turning = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
     candidates = np.flatnonzero(turning > corner_angle)
     if len(candidates) < 4:
         raise GeometryError(
             f"the boundary has {len(candidates)} corners sharper than {corner_angle:g} degrees, "
-            f"the grid method needs 4; lower [panelize] corner_angle or use a four-sided surface")
+            f"the grid method needs 4; lower [panelize] corner_angle or use a four-sided surface"
+        )
     sharpest = candidates[np.argsort(-turning[candidates], kind="stable")[:4]]
     return np.sort(sharpest)
 
 
 def _resample(polyline: np.ndarray, count: int) -> np.ndarray:
     """``count`` points evenly spaced by arc length along a polyline, ends kept."""
-    cumulative = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(polyline, axis=0),
-                                                                 axis=1))])
+    cumulative = np.concatenate(
+        [[0.0], np.cumsum(np.linalg.norm(np.diff(polyline, axis=0), axis=1))]
+    )
     targets = np.linspace(0.0, cumulative[-1], count)
     return np.stack([np.interp(targets, cumulative, polyline[:, c]) for c in range(3)], axis=1)
 
@@ -134,33 +145,38 @@ def _coons_grid(surface: Surface, query: SurfaceQuery, settings) -> tuple[np.nda
     closed = np.vstack([loop, loop[:1]])
     sides = []
     for a, b in zip(corners, np.roll(corners, -1)):
-        sides.append(closed[a:b + 1] if b > a else np.vstack([loop[a:], loop[:b + 1]]))
+        sides.append(closed[a : b + 1] if b > a else np.vstack([loop[a:], loop[: b + 1]]))
     lengths = [float(np.linalg.norm(np.diff(s, axis=0), axis=1).sum()) for s in sides]
     nu = _divisions(0.5 * (lengths[0] + lengths[2]), settings.panel_size, settings.grid_u)
     nv = _divisions(0.5 * (lengths[1] + lengths[3]), settings.panel_size, settings.grid_v)
-    bottom = _resample(sides[0], nu + 1)            # c0 -> c1
-    right = _resample(sides[1], nv + 1)             # c1 -> c2
-    top = _resample(sides[2], nu + 1)[::-1]         # c3 -> c2
-    left = _resample(sides[3], nv + 1)[::-1]        # c0 -> c3
+    bottom = _resample(sides[0], nu + 1)  # c0 -> c1
+    right = _resample(sides[1], nv + 1)  # c1 -> c2
+    top = _resample(sides[2], nu + 1)[::-1]  # c3 -> c2
+    left = _resample(sides[3], nv + 1)[::-1]  # c0 -> c3
     s = np.linspace(0.0, 1.0, nu + 1)[:, None, None]
     t = np.linspace(0.0, 1.0, nv + 1)[None, :, None]
     ruled_s = (1 - t) * bottom[:, None] + t * top[:, None]
     ruled_t = (1 - s) * left[None] + s * right[None]
-    bilinear = ((1 - s) * (1 - t) * bottom[0] + s * (1 - t) * bottom[-1]
-                + (1 - s) * t * top[0] + s * t * top[-1])
+    bilinear = (
+        (1 - s) * (1 - t) * bottom[0]
+        + s * (1 - t) * bottom[-1]
+        + (1 - s) * t * top[0]
+        + s * t * top[-1]
+    )
     patch = (ruled_s + ruled_t - bilinear).reshape(-1, 3)
-    interior = np.ones((nu + 1, nv + 1), dtype=bool)
-    interior[[0, -1], :] = False
-    interior[:, [0, -1]] = False
-    interior = interior.ravel()
+    interior_grid = np.ones((nu + 1, nv + 1), dtype=bool)
+    interior_grid[[0, -1], :] = False
+    interior_grid[:, [0, -1]] = False
+    interior = interior_grid.ravel()
     # boundary points already lie on the boundary polyline; only interior points are projected
     projected, _, _ = query.closest(patch[interior])
     patch[interior] = projected
     return patch, _grid_quads(nu, nv)
 
 
-def _orient_outwards(vertices: np.ndarray, quads: np.ndarray, parameters: np.ndarray | None,
-                     query: SurfaceQuery) -> tuple[np.ndarray, np.ndarray | None]:
+def _orient_outwards(
+    vertices: np.ndarray, quads: np.ndarray, parameters: np.ndarray | None, query: SurfaceQuery
+) -> tuple[np.ndarray, np.ndarray | None]:
     """Reverse the corner order when the grid's right-hand normal points inwards."""
     corners = vertices[quads]
     normals_rh = np.cross(corners[:, 1] - corners[:, 0], corners[:, 3] - corners[:, 0])

@@ -91,8 +91,10 @@ class _Projector:
 
         flat = to_plane(surface.vertices, frame)
         tri = flat[surface.faces]
-        signed = 0.5 * ((tri[:, 1, 0] - tri[:, 0, 0]) * (tri[:, 2, 1] - tri[:, 0, 1])
-                        - (tri[:, 2, 0] - tri[:, 0, 0]) * (tri[:, 1, 1] - tri[:, 0, 1]))
+        signed = 0.5 * (
+            (tri[:, 1, 0] - tri[:, 0, 0]) * (tri[:, 2, 1] - tri[:, 0, 1])
+            - (tri[:, 2, 0] - tri[:, 0, 0]) * (tri[:, 1, 1] - tri[:, 0, 1])
+        )
         _check_fold(surface, flat, signed)
         self.flat = flat
         self.faces = np.asarray(surface.faces, dtype=np.int64)
@@ -103,7 +105,7 @@ class _Projector:
         """(p, 3) float: surface-mesh points above plane points (nearest flat triangle)."""
         p = np.column_stack([points2d, np.zeros(len(points2d))])
         foot, _, tri = self.locator.nearest(p)
-        corners = self.flat[self.faces[tri]]                      # (p, 3, 2)
+        corners = self.flat[self.faces[tri]]  # (p, 3, 2)
         a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
         v0, v1, v2 = b - a, c - a, foot[:, :2] - a
         d00 = np.einsum("ij,ij->i", v0, v0)
@@ -128,9 +130,11 @@ def _check_fold(surface: Surface, flat: np.ndarray, signed: np.ndarray) -> None:
 
     total = float(np.abs(signed).sum())
     if total <= 0:
-        raise GeometryError(f"{surface.source.name}: the surface projects onto a line in its "
-                            f"best-fitting plane; use [panelize] method = \"grid\" or a user "
-                            f"layout (method = \"layout\")")
+        raise GeometryError(
+            f"{surface.source.name}: the surface projects onto a line in its "
+            f'best-fitting plane; use [panelize] method = "grid" or a user '
+            f'layout (method = "layout")'
+        )
     negative = float(-signed[signed < 0].sum())
     covered = None
     if surface.boundary_loops:
@@ -144,7 +148,8 @@ def _check_fold(surface: Surface, flat: np.ndarray, signed: np.ndarray) -> None:
             f"{surface.source.name}: the surface folds over itself when projected onto its "
             f"best-fitting plane ({100 * overlap:.1f}% of its projected area is covered twice), so "
             f"the skeleton method cannot map a plane layout onto it; use [panelize] method = "
-            f"\"grid\" (four-sided surfaces) or draw a layout (method = \"layout\")")
+            f'"grid" (four-sided surfaces) or draw a layout (method = "layout")'
+        )
 
 
 def check_projection(surface: Surface, frame: PlaneFrame) -> _Projector:
@@ -158,8 +163,9 @@ def check_projection(surface: Surface, frame: PlaneFrame) -> _Projector:
     return cached[1]
 
 
-def lift(points2d: np.ndarray, surface: Surface, frame: PlaneFrame,
-         query: SurfaceQuery) -> tuple[np.ndarray, np.ndarray]:
+def lift(
+    points2d: np.ndarray, surface: Surface, frame: PlaneFrame, query: SurfaceQuery
+) -> tuple[np.ndarray, np.ndarray]:
     """Map plane points onto the surface along the plane normal.
 
     points2d : (p, 2) float, plane coordinates, mm (see :func:`to_plane`).

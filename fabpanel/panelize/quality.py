@@ -15,7 +15,8 @@ def corner_angles(corners: np.ndarray) -> np.ndarray:
     to_next = np.roll(corners, -1, axis=1) - corners
     to_prev = np.roll(corners, 1, axis=1) - corners
     cos = np.einsum("mci,mci->mc", to_next, to_prev) / (
-        np.linalg.norm(to_next, axis=2) * np.linalg.norm(to_prev, axis=2))
+        np.linalg.norm(to_next, axis=2) * np.linalg.norm(to_prev, axis=2)
+    )
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
 
 
@@ -56,8 +57,14 @@ def singular_vertices(layout: PanelLayout) -> list[dict]:
     used = np.zeros(len(layout.vertices), dtype=bool)
     used[layout.quads.ravel()] = True
     singular = np.flatnonzero(used & ~on_boundary & (valence != 4))
-    return [{"vertex": int(v), "valence": int(valence[v]),
-             "position_mm": [round(float(c), 3) for c in layout.vertices[v]]} for v in singular]
+    return [
+        {
+            "vertex": int(v),
+            "valence": int(valence[v]),
+            "position_mm": [round(float(c), 3) for c in layout.vertices[v]],
+        }
+        for v in singular
+    ]
 
 
 def boundary_coverage(layout: PanelLayout, design_loops: list[np.ndarray]) -> float:
@@ -77,56 +84,79 @@ def boundary_coverage(layout: PanelLayout, design_loops: list[np.ndarray]) -> fl
     design_starts = np.concatenate(design_loops)
     design_ends = np.concatenate([np.roll(loop, -1, axis=0) for loop in design_loops])
     to_layout = point_segment_distances(design_points, starts, ends)
-    to_design = point_segment_distances(layout.vertices[np.unique(boundary_sides)],
-                                        design_starts, design_ends)
+    to_design = point_segment_distances(
+        layout.vertices[np.unique(boundary_sides)], design_starts, design_ends
+    )
     return float(max(to_layout.max(), to_design.max()))
 
 
-def layout_metrics(layout: PanelLayout, query: SurfaceQuery, target: float,
-                   cutting, design_loops: list[np.ndarray] | None = None
-                   ) -> tuple[dict, tuple[Issue, ...]]:
+def layout_metrics(
+    layout: PanelLayout,
+    query: SurfaceQuery,
+    target: float,
+    cutting,
+    design_loops: list[np.ndarray] | None = None,
+) -> tuple[dict, tuple[Issue, ...]]:
     """Measures of a layout against the target panel size and the stock plate."""
     corners = layout.vertices[layout.quads]
     edges = layout.edges
     lengths = np.linalg.norm(layout.vertices[edges[:, 1]] - layout.vertices[edges[:, 0]], axis=1)
     angles = corner_angles(corners)
     side_lengths = np.linalg.norm(np.roll(corners, -1, axis=1) - corners, axis=2)
-    aspect = (np.maximum(side_lengths[:, 0] + side_lengths[:, 2],
-                         side_lengths[:, 1] + side_lengths[:, 3])
-              / np.minimum(side_lengths[:, 0] + side_lengths[:, 2],
-                           side_lengths[:, 1] + side_lengths[:, 3]))
+    aspect = np.maximum(
+        side_lengths[:, 0] + side_lengths[:, 2], side_lengths[:, 1] + side_lengths[:, 3]
+    ) / np.minimum(side_lengths[:, 0] + side_lengths[:, 2], side_lengths[:, 1] + side_lengths[:, 3])
     extents = np.sort(panel_extents(corners), axis=1)[:, ::-1]
-    usable = np.sort([cutting.plate_length - 2 * cutting.plate_margin,
-                      cutting.plate_width - 2 * cutting.plate_margin])[::-1]
+    usable = np.sort(
+        [
+            cutting.plate_length - 2 * cutting.plate_margin,
+            cutting.plate_width - 2 * cutting.plate_margin,
+        ]
+    )[::-1]
     fits = np.all(extents <= usable, axis=1)
     _, _, distances = query.closest(layout.vertices)
     issues = tuple(
-        Issue("panel-exceeds-plate",
-              f"panel {layout.panel_ids[i]} is about {extents[i, 0]:.0f} x {extents[i, 1]:.0f} mm, "
-              f"larger than the usable plate {usable[0]:.0f} x {usable[1]:.0f} mm; lower "
-              f"[panelize] panel_size", layout.panel_ids[i], "error")
-        for i in np.flatnonzero(~fits))
+        Issue(
+            "panel-exceeds-plate",
+            f"panel {layout.panel_ids[i]} is about {extents[i, 0]:.0f} x {extents[i, 1]:.0f} mm, "
+            f"larger than the usable plate {usable[0]:.0f} x {usable[1]:.0f} mm; lower "
+            f"[panelize] panel_size",
+            layout.panel_ids[i],
+            "error",
+        )
+        for i in np.flatnonzero(~fits)
+    )
     singular = singular_vertices(layout)
     metrics = {
         "panels": len(layout.quads),
         "singular_vertices": singular,
-        "singular_valences": {str(v): sum(s["valence"] == v for s in singular)
-                              for v in sorted({s["valence"] for s in singular})},
+        "singular_valences": {
+            str(v): sum(s["valence"] == v for s in singular)
+            for v in sorted({s["valence"] for s in singular})
+        },
         "vertices": len(layout.vertices),
         "target_edge_mm": round(float(target), 3),
-        "edge_length_mm": {"min": round(float(lengths.min()), 3),
-                           "median": round(float(np.median(lengths)), 3),
-                           "max": round(float(lengths.max()), 3)},
-        "edge_length_vs_target": {"min": round(float(lengths.min() / target), 4),
-                                  "max": round(float(lengths.max() / target), 4)},
-        "corner_angle_deg": {"min": round(float(angles.min()), 3),
-                             "max": round(float(angles.max()), 3)},
+        "edge_length_mm": {
+            "min": round(float(lengths.min()), 3),
+            "median": round(float(np.median(lengths)), 3),
+            "max": round(float(lengths.max()), 3),
+        },
+        "edge_length_vs_target": {
+            "min": round(float(lengths.min() / target), 4),
+            "max": round(float(lengths.max() / target), 4),
+        },
+        "corner_angle_deg": {
+            "min": round(float(angles.min()), 3),
+            "max": round(float(angles.max()), 3),
+        },
         "aspect_ratio_max": round(float(aspect.max()), 4),
         "largest_panel_mm": [round(float(v), 1) for v in extents[np.argmax(extents[:, 0])]],
         "usable_plate_mm": [round(float(v), 1) for v in usable],
         "panels_exceeding_plate": int((~fits).sum()),
-        "vertex_distance_to_surface_mm": {"max": round(float(distances.max()), 6),
-                                          "mean": round(float(distances.mean()), 6)},
+        "vertex_distance_to_surface_mm": {
+            "max": round(float(distances.max()), 6),
+            "mean": round(float(distances.mean()), 6),
+        },
         "edge_lengths_within_band": _band_share(lengths, target),
     }
     if design_loops is not None:

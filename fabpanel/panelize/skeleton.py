@@ -33,7 +33,13 @@ from shapely.geometry import Polygon
 
 from ..errors import GeometryError
 from .coarse import CoarseLayout
-from .skeleton_input import conforming_delaunay, sample_loops, turning_angles, validate_loops
+from .skeleton_input import (
+    _LoopCurve,
+    conforming_delaunay,
+    sample_loops,
+    turning_angles,
+    validate_loops,
+)
 
 log = logging.getLogger(__name__)
 
@@ -73,8 +79,8 @@ def _circumcentres(P, tris):
     b = b - a
     c = c - a
     d = 2.0 * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0])
-    bb = (b ** 2).sum(1)
-    cc = (c ** 2).sum(1)
+    bb = (b**2).sum(1)
+    cc = (c**2).sum(1)
     ux = (c[:, 1] * bb - b[:, 1] * cc) / d
     uy = (b[:, 0] * cc - c[:, 0] * bb) / d
     return a + np.stack([ux, uy], 1)
@@ -101,17 +107,23 @@ class _Skeleton:
         for key, ts in edge_tris.items():
             if key in bnd_keys:
                 if len(ts) != 1:
-                    raise GeometryError("boundary samples are not triangulated consistently near "
-                                        f"({P[key // n][0]:.6g}, {P[key // n][1]:.6g}); "
-                                        "pass a smaller sample_spacing")
+                    raise GeometryError(
+                        "boundary samples are not triangulated consistently near "
+                        f"({P[key // n][0]:.6g}, {P[key // n][1]:.6g}); "
+                        "pass a smaller sample_spacing"
+                    )
             elif len(ts) != 2:
                 a = key // n
-                raise GeometryError("the triangulation leaks across the boundary near "
-                                    f"({P[a][0]:.6g}, {P[a][1]:.6g}); pass a smaller sample_spacing")
+                raise GeometryError(
+                    "the triangulation leaks across the boundary near "
+                    f"({P[a][0]:.6g}, {P[a][1]:.6g}); pass a smaller sample_spacing"
+                )
         for key in bnd_keys:
             if key not in edge_tris:
-                raise GeometryError("a boundary segment is not covered by the triangulation near "
-                                    f"({P[key // n][0]:.6g}, {P[key // n][1]:.6g})")
+                raise GeometryError(
+                    "a boundary segment is not covered by the triangulation near "
+                    f"({P[key // n][0]:.6g}, {P[key // n][1]:.6g})"
+                )
         cc = _circumcentres(P, tris)
         tol = CLUSTER_SHARE * spacing
         uf = _UF(T)
@@ -138,10 +150,10 @@ class _Skeleton:
         groups = defaultdict(list)
         for t in range(T):
             groups[cl[t]].append(t)
-        self.poly = []      # CCW vertex ids of every cluster
-        self.eside = []     # per polygon edge i (poly[i] -> poly[i+1]): -1 boundary or chord key
+        self.poly = []  # CCW vertex ids of every cluster
+        self.eside = []  # per polygon edge i (poly[i] -> poly[i+1]): -1 boundary or chord key
         self.pos = np.zeros((self.ncl, 2))
-        self.chord = {}     # chord key -> (cluster, cluster)
+        self.chord = {}  # chord key -> (cluster, cluster)
         self.bnd_owner = {}  # boundary key -> (cluster, polygon edge index)
         roots_cl = list(cl)
         for c in range(self.ncl):
@@ -209,9 +221,12 @@ class _Skeleton:
         return np.array([((x + xn) * cr).sum(), ((y + yn) * cr).sum()]) / (6.0 * area)
 
 
-def skeleton_layout(loops: list[np.ndarray], corner_angle: float = 35.0,
-                    sample_spacing: float | None = None,
-                    point_features: np.ndarray | None = None) -> CoarseLayout:
+def skeleton_layout(
+    loops: list[np.ndarray],
+    corner_angle: float = 35.0,
+    sample_spacing: float | None = None,
+    point_features: np.ndarray | None = None,
+) -> CoarseLayout:
     """Coarse quad layout of a planar domain with holes by medial-axis decomposition.
 
     loops : list of (k, 2) float
@@ -250,8 +265,7 @@ def skeleton_layout(loops: list[np.ndarray], corner_angle: float = 35.0,
             bnd_dir.append((a, b))
     sk = _Skeleton(P, tris, bnd_keys, h)
     info = {"samples": int(n), "triangles": len(tris), "skeleton_nodes": int(sk.ncl)}
-    dec = _Decomposition(sk, smp, info)
-    dec.curves = curves
+    dec = _Decomposition(sk, smp, info, curves)
     dec.prune()
     dec.graft()
     dec.correct()
@@ -259,14 +273,17 @@ def skeleton_layout(loops: list[np.ndarray], corner_angle: float = 35.0,
 
 
 class _Decomposition:
-    def __init__(self, sk: _Skeleton, smp, info):
+    def __init__(self, sk: _Skeleton, smp, info, curves: list[_LoopCurve]):
         self.sk = sk
         self.smp = smp
         self.info = info
+        self.curves = curves  # loop index -> arc-length parametrised loop
         self.live_chords = set(sk.chord)
         self.live_nodes = set(range(sk.ncl))
-        self.corner_ports = defaultdict(set)   # cluster -> polygon edge indices
-        self.spokes = defaultdict(set)         # cluster -> polygon vertex indices
+        # cluster -> polygon edge indices
+        self.corner_ports: defaultdict[int, set[int]] = defaultdict(set)
+        # cluster -> polygon vertex indices
+        self.spokes: defaultdict[int, set[int]] = defaultdict(set)
         self.info["junctions"] = int(sum(1 for c in range(sk.ncl) if len(sk.ports[c]) >= 3))
         self.corrections = {"reflex_corner": 0, "turning": 0, "loop_splits": 0}
 
@@ -314,7 +331,7 @@ class _Decomposition:
             while True:
                 clp = self.live_ports(cur)
                 if len(clp) == 2 and self.eff(cur) < 3:
-                    key = [sk.eside[cur][i] for i in clp if sk.eside[cur][i] != key][0]
+                    key = next(sk.eside[cur][i] for i in clp if sk.eside[cur][i] != key)
                     path.append(cur)
                     keys.append(key)
                     cur = self.other(key, cur)
@@ -333,7 +350,7 @@ class _Decomposition:
         sk = self.sk
         self.rounded_corners = 0
         self._turning = {}
-        absorbed = defaultdict(set)     # node -> boundary samples of branches pruned into it
+        absorbed = defaultdict(set)  # node -> boundary samples of branches pruned into it
         pruned_corner = pruned_noise = 0
         while True:
             branches = self._terminal_branches()
@@ -350,22 +367,21 @@ class _Decomposition:
             samples = {v for c in path for v in sk.poly[c]}
             for c in path:
                 samples |= absorbed.pop(c, set())
-            if not is_corner and apex:
-                # a rounded corner (no sample turns by corner_angle, but the boundary the branch
-                # reaches into turns by SIGNIFICANT_TURN in all): its apex becomes a corner, as a
-                # sharp one would be; a bump on a straight side turns ~0 net
-                if self._net_turn(samples, apex) >= SIGNIFICANT_TURN:
-                    v = apex[len(apex) // 2]
-                    self.smp.corner[v] = self.smp.convex[v] = True
-                    self.rounded_corners += 1
-                    is_corner = True
+            # a rounded corner (no sample turns by corner_angle, but the boundary the branch
+            # reaches into turns by SIGNIFICANT_TURN in all): its apex becomes a corner, as a
+            # sharp one would be; a bump on a straight side turns ~0 net
+            if not is_corner and apex and self._net_turn(samples, apex) >= SIGNIFICANT_TURN:
+                v = apex[len(apex) // 2]
+                self.smp.corner[v] = self.smp.convex[v] = True
+                self.rounded_corners += 1
+                is_corner = True
             for kk in keys:
                 self.live_chords.discard(kk)
             for c in path:
                 self.live_nodes.discard(c)
                 self.corner_ports.pop(c, None)
             if is_corner:
-                root_i = [i for i in sk.ports[cur] if sk.eside[cur][i] == key][0]
+                root_i = next(i for i in sk.ports[cur] if sk.eside[cur][i] == key)
                 self.corner_ports[cur].add(root_i)
                 pruned_corner += 1
             else:
@@ -399,12 +415,16 @@ class _Decomposition:
     def graft(self):
         sk = self.sk
         njun = 0
-        if (self.live_nodes and all(self.eff(c) < 3 for c in self.live_nodes)
-                and len(self.live_chords) == len(self.live_nodes) - 1):
+        if (
+            self.live_nodes
+            and all(self.eff(c) < 3 for c in self.live_nodes)
+            and len(self.live_chords) == len(self.live_nodes) - 1
+        ):
             # the pruned skeleton is a bare path (disc-like domain): keep its widest node only,
             # grafted to three boundary samples (one valence-3 singularity)
             def radius(c):
                 return float(np.min(np.linalg.norm(sk.P[sk.poly[c]] - sk.pos[c], axis=1)))
+
             keep = max(sorted(self.live_nodes), key=radius)
             self.live_nodes = {keep}
             self.live_chords = set()
@@ -441,7 +461,7 @@ class _Decomposition:
         verts = self.sk.poly[c]
         for run in gaps:
             if prefer_vertex is not None and any(verts[i] == prefer_vertex for i in run):
-                self.spokes[c].add([i for i in run if verts[i] == prefer_vertex][0])
+                self.spokes[c].add(next(i for i in run if verts[i] == prefer_vertex))
             else:
                 self.spokes[c].add(self._pick(run, 1)[0])
 
@@ -469,8 +489,10 @@ class _Decomposition:
             nxt = o[(o.index(v) + 1) % len(o)]
             d0 = sk.P[nxt] - sk.P[v]
             a0 = math.atan2(d0[1], d0[0])
-            cands = sorted(cands, key=lambda c: ((math.atan2(*(sk.pos[c] - sk.P[v])[::-1]) - a0)
-                                                 % (2 * math.pi), c))
+            cands = sorted(
+                cands,
+                key=lambda c: ((math.atan2(*(sk.pos[c] - sk.P[v])[::-1]) - a0) % (2 * math.pi), c),
+            )
             c = cands[len(cands) // 2]
             if self._is_plain(c):
                 self._cross_cut(c, prefer_vertex=v)
@@ -503,8 +525,12 @@ class _Decomposition:
                     continue
                 ncut = math.ceil(abs(total) / MAX_TURN - 0.05) - 1
                 cum = np.cumsum(turn) * np.sign(total)
-                picks = sorted({int(np.argmin(np.abs(cum - abs(total) * (j + 1) / (ncut + 1))))
-                                for j in range(ncut)})
+                picks = sorted(
+                    {
+                        int(np.argmin(np.abs(cum - abs(total) * (j + 1) / (ncut + 1))))
+                        for j in range(ncut)
+                    }
+                )
             for i in picks:
                 c = nodes[min(i, len(nodes) - 1)]
                 if self._is_plain(c):
@@ -538,8 +564,10 @@ class _Decomposition:
                         if best is None or score < best:
                             best = score
                 if best is None:
-                    raise GeometryError(f"loop {li} cannot be split into 3 sides by the skeleton; "
-                                        "pass a smaller sample_spacing")
+                    raise GeometryError(
+                        f"loop {li} cannot be split into 3 sides by the skeleton; "
+                        "pass a smaller sample_spacing"
+                    )
                 _, _, c, i = best
                 if self._is_plain(c):
                     self._cross_cut(c, prefer_vertex=sk.poly[c][i])
@@ -573,7 +601,7 @@ class _Decomposition:
                 if nb == start:
                     closed = True
                     break
-                nk = [sk.eside[nb][i] for i in self.live_ports(nb) if sk.eside[nb][i] != key][0]
+                nk = next(sk.eside[nb][i] for i in self.live_ports(nb) if sk.eside[nb][i] != key)
                 cur, key = nb, nk
             # now walk forward from cur, entering through key
             first = cur if not closed else start
@@ -599,4 +627,5 @@ class _Decomposition:
     # -- patches and layout -------------------------------------------------------------------
     def layout(self, bnd_dir, point_features, diag):
         from .skeleton_patches import build_layout
+
         return build_layout(self, bnd_dir, point_features, diag)

@@ -43,7 +43,9 @@ def validate_loops(loops) -> list[np.ndarray]:
     outside or touching loops.
     """
     if loops is None or len(loops) == 0:
-        raise GeometryError("no boundary loop given: pass at least the outer boundary as (n, 2) points")
+        raise GeometryError(
+            "no boundary loop given: pass at least the outer boundary as (n, 2) points"
+        )
     out = []
     for i, lp in enumerate(loops):
         name = "boundary loop 0" if i == 0 else f"opening {i}"
@@ -56,19 +58,25 @@ def validate_loops(loops) -> list[np.ndarray]:
             p = p[:-1]
         diag = float(np.linalg.norm(p.max(0) - p.min(0))) if len(p) else 0.0
         if len(p) >= 2:
-            keep = np.linalg.norm(p - np.roll(p, 1, axis=0), axis=1) > DUPLICATE_TOL * max(diag, 1e-300)
+            keep = np.linalg.norm(p - np.roll(p, 1, axis=0), axis=1) > DUPLICATE_TOL * max(
+                diag, 1e-300
+            )
             p = p[keep]
         if len(p) < 3:
             raise GeometryError(f"{name} has fewer than 3 distinct points; give a closed polyline")
         ring = LinearRing(p)
         poly = Polygon(p)
         if not ring.is_simple or not poly.is_valid:
-            raise GeometryError(f"{name} intersects itself{_where(explain_validity(poly))}; "
-                                "fix the polyline so that it does not cross itself")
+            raise GeometryError(
+                f"{name} intersects itself{_where(explain_validity(poly))}; "
+                "fix the polyline so that it does not cross itself"
+            )
         area = _signed_area(p)
         if abs(area) <= 1e-12 * diag * diag:
-            raise GeometryError(f"{name} has zero area near ({p[0, 0]:.6g}, {p[0, 1]:.6g}); "
-                                "remove the degenerate loop")
+            raise GeometryError(
+                f"{name} has zero area near ({p[0, 0]:.6g}, {p[0, 1]:.6g}); "
+                "remove the degenerate loop"
+            )
         if (i == 0) != (area > 0):
             p = p[::-1].copy()
         out.append(p)
@@ -78,18 +86,24 @@ def validate_loops(loops) -> list[np.ndarray]:
         if not outer.contains(hp):
             c = hp.representative_point()
             if outer.intersects(hp):
-                raise GeometryError(f"opening {i} touches or crosses the outer boundary near "
-                                    f"({c.x:.6g}, {c.y:.6g}); move it inside")
-            raise GeometryError(f"opening {i} lies outside the outer boundary near "
-                                f"({c.x:.6g}, {c.y:.6g}); move it inside or drop it")
+                raise GeometryError(
+                    f"opening {i} touches or crosses the outer boundary near "
+                    f"({c.x:.6g}, {c.y:.6g}); move it inside"
+                )
+            raise GeometryError(
+                f"opening {i} lies outside the outer boundary near "
+                f"({c.x:.6g}, {c.y:.6g}); move it inside or drop it"
+            )
         if outer.exterior.distance(hp.exterior) <= 0.0:
             raise GeometryError(f"opening {i} touches the outer boundary; leave a gap")
     for i in range(len(holes)):
         for j in range(i + 1, len(holes)):
             if holes[i].distance(holes[j]) <= 0.0:
                 c = holes[i].representative_point()
-                raise GeometryError(f"opening {i + 1} touches or overlaps opening {j + 1} near "
-                                    f"({c.x:.6g}, {c.y:.6g}); merge them or leave a gap")
+                raise GeometryError(
+                    f"opening {i + 1} touches or overlaps opening {j + 1} near "
+                    f"({c.x:.6g}, {c.y:.6g}); merge them or leave a gap"
+                )
     return out
 
 
@@ -106,13 +120,13 @@ def turning_angles(p: np.ndarray) -> np.ndarray:
 class Sampling:
     """Boundary samples with ids: ``points[i]`` lies on loop ``loop[i]`` at arc length ``s[i]``."""
 
-    points: np.ndarray          # (N, 2)
-    loop: np.ndarray            # (N,) int
-    s: np.ndarray               # (N,) float, arc length on the (oriented) input loop
-    corner: np.ndarray          # (N,) bool
-    convex: np.ndarray          # (N,) bool, meaningful for corners
-    order: list[list[int]]      # sample ids of every loop in loop order
-    lengths: list[float]        # perimeter of every input loop
+    points: np.ndarray  # (N, 2)
+    loop: np.ndarray  # (N,) int
+    s: np.ndarray  # (N,) float, arc length on the (oriented) input loop
+    corner: np.ndarray  # (N,) bool
+    convex: np.ndarray  # (N,) bool, meaningful for corners
+    order: list[list[int]]  # sample ids of every loop in loop order
+    lengths: list[float]  # perimeter of every input loop
 
 
 class _LoopCurve:
@@ -142,9 +156,18 @@ class _LoopCurve:
         return a + t * (b - a)
 
 
-def sample_loops(loops: list[np.ndarray], corner_angle: float, spacing: float) -> tuple[Sampling, list]:
+def sample_loops(
+    loops: list[np.ndarray], corner_angle: float, spacing: float
+) -> tuple[Sampling, list[_LoopCurve]]:
     """Resample every loop at about ``spacing``, keeping corners, at least 12 samples a loop."""
-    pts, lp, ss, cor, cvx, order, lengths, curves = [], [], [], [], [], [], [], []
+    pts: list[np.ndarray] = []
+    lp: list[int] = []
+    ss: list[float] = []
+    cor: list[bool] = []
+    cvx: list[bool] = []
+    order: list[list[int]] = []
+    lengths: list[float] = []
+    curves: list[_LoopCurve] = []
     for li, p in enumerate(loops):
         curve = _LoopCurve(p)
         curves.append(curve)
@@ -152,8 +175,8 @@ def sample_loops(loops: list[np.ndarray], corner_angle: float, spacing: float) -
         turn = turning_angles(p)
         cidx = np.flatnonzero(np.abs(turn) > corner_angle)
         h = min(spacing, curve.length / 12.0)
-        anchors = list(cidx) if len(cidx) else [0]
-        ids = []
+        anchors: list[int] = [int(i) for i in cidx] if len(cidx) else [0]
+        ids: list[int] = []
         for k, a in enumerate(anchors):
             b = anchors[(k + 1) % len(anchors)]
             s0 = curve.cum[a]
@@ -169,8 +192,15 @@ def sample_loops(loops: list[np.ndarray], corner_angle: float, spacing: float) -
                 cor.append(is_c)
                 cvx.append(bool(is_c and turn[a] > 0))
         order.append(ids)
-    smp = Sampling(np.array(pts, float), np.array(lp, int), np.array(ss, float),
-                   np.array(cor, bool), np.array(cvx, bool), order, lengths)
+    smp = Sampling(
+        np.array(pts, float),
+        np.array(lp, int),
+        np.array(ss, float),
+        np.array(cor, bool),
+        np.array(cvx, bool),
+        order,
+        lengths,
+    )
     return smp, curves
 
 
@@ -214,11 +244,20 @@ def conforming_delaunay(smp: Sampling, curves: list, domain: Polygon):
         if not missing:
             break
     else:
-        raise GeometryError("boundary recovery did not converge; the boundary has features much "
-                            "smaller than the sample spacing - pass a smaller sample_spacing")
+        raise GeometryError(
+            "boundary recovery did not converge; the boundary has features much "
+            "smaller than the sample spacing - pass a smaller sample_spacing"
+        )
     P = np.array(pts)
-    smp = Sampling(P, np.array(lp, int), np.array(ss, float), np.array(cor, bool),
-                   np.array(cvx, bool), order, smp.lengths)
+    smp = Sampling(
+        P,
+        np.array(lp, int),
+        np.array(ss, float),
+        np.array(cor, bool),
+        np.array(cvx, bool),
+        order,
+        smp.lengths,
+    )
     simp = np.array(tri.simplices, dtype=np.int64)
     a, b, c = P[simp[:, 0]], P[simp[:, 1]], P[simp[:, 2]]
     cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])

@@ -89,7 +89,7 @@ def build_layout(dec, bnd_dir, point_features, diag) -> CoarseLayout:
         s = sk.eside[c][j]
         return ("B", c, j) if s == -1 else ("H", s, v)
 
-    fid = {}
+    fid: dict[tuple[str, int, int], int] = {}
 
     def F(f):
         if f not in fid:
@@ -152,8 +152,10 @@ def build_layout(dec, bnd_dir, point_features, diag) -> CoarseLayout:
             v = vs[i]
             lf, rf = find(F(face_at(c, i, v))), find(F(face_at(c, i - 1, v)))
             if lf == rf:
-                raise GeometryError("a graft ends inside one patch (dangling branch) near "
-                                    f"({P[v][0]:.6g}, {P[v][1]:.6g}); try another sample_spacing")
+                raise GeometryError(
+                    "a graft ends inside one patch (dangling branch) near "
+                    f"({P[v][0]:.6g}, {P[v][1]:.6g}); try another sample_spacing"
+                )
             halfedges.append((n + c, v, lf, None))
             halfedges.append((v, n + c, rf, None))
 
@@ -161,24 +163,26 @@ def build_layout(dec, bnd_dir, point_features, diag) -> CoarseLayout:
         a, b, _, g = he
         return g if g is not None else np.array([X(a), X(b)])
 
-    degree = Counter()
+    half_degree: Counter[int] = Counter()
     for a, b, _, _ in halfedges:
-        degree[a] += 1
-        degree[b] += 1
+        half_degree[a] += 1
+        half_degree[b] += 1
     for a, b in bnd_dir:  # boundary edges were added once, count their other direction
-        degree[a] += 1
-        degree[b] += 1
-    degree = {k: v // 2 for k, v in degree.items()}
+        half_degree[a] += 1
+        half_degree[b] += 1
+    degree = {k: v // 2 for k, v in half_degree.items()}
     coarse_nodes = {p for p, d in degree.items() if d != 2}
     coarse_nodes |= {int(v) for v in np.flatnonzero(smp.corner)}
 
-    by_patch = defaultdict(dict)
+    by_patch: defaultdict[int, dict[int, tuple]] = defaultdict(dict)  # patch -> start -> he
     for he in halfedges:
         d = by_patch[he[2]]
         if he[0] in d:
             x = X(he[0])
-            raise GeometryError(f"a patch touches itself at ({x[0]:.6g}, {x[1]:.6g}); the skeleton "
-                                "decomposition failed here - try another sample_spacing")
+            raise GeometryError(
+                f"a patch touches itself at ({x[0]:.6g}, {x[1]:.6g}); the skeleton "
+                "decomposition failed here - try another sample_spacing"
+            )
         d[he[0]] = he
     cycles = {}
     for pid in sorted(by_patch):
@@ -188,13 +192,16 @@ def build_layout(dec, bnd_dir, point_features, diag) -> CoarseLayout:
         while cyc[-1][1] != start:
             cyc.append(d[cyc[-1][1]])
             if len(cyc) > len(d):
-                raise GeometryError("patch outline does not close; internal error of the "
-                                    "decomposition")
+                raise GeometryError(
+                    "patch outline does not close; internal error of the decomposition"
+                )
         if len(cyc) != len(d):
             x = X(start)
-            raise GeometryError(f"a patch near ({x[0]:.6g}, {x[1]:.6g}) is not a disk (it surrounds "
-                                "an opening); the skeleton decomposition failed - try another "
-                                "sample_spacing")
+            raise GeometryError(
+                f"a patch near ({x[0]:.6g}, {x[1]:.6g}) is not a disk (it surrounds "
+                "an opening); the skeleton decomposition failed - try another "
+                "sample_spacing"
+            )
         cycles[pid] = cyc
 
     # coarse vertex ids: boundary samples in loop order, then skeleton nodes
@@ -209,19 +216,21 @@ def build_layout(dec, bnd_dir, point_features, diag) -> CoarseLayout:
     corner = [bool(p < n and smp.corner[p]) for p in cn]
 
     # patch sides
-    sides = {}          # canonical node tuple -> side id
-    side_geom = []      # side id -> polyline in canonical direction
+    sides: dict[tuple[int, ...], int] = {}  # canonical node tuple -> side id
+    side_geom: list[np.ndarray] = []  # side id -> polyline in canonical direction
     side_ends = []
     side_loop = []
     side_nodes = []
-    patches = []        # list of list of (side id, forward?)
+    patches = []  # list of list of (side id, forward?)
     for pid in sorted(cycles):
         cyc = cycles[pid]
         s0 = next((j for j, he in enumerate(cyc) if he[0] in coarse_nodes), None)
         if s0 is None:
             x = X(cyc[0][0])
-            raise GeometryError(f"a boundary loop near ({x[0]:.6g}, {x[1]:.6g}) has no split point; "
-                                "internal error of the decomposition")
+            raise GeometryError(
+                f"a boundary loop near ({x[0]:.6g}, {x[1]:.6g}) has no split point; "
+                "internal error of the decomposition"
+            )
         cyc = cyc[s0:] + cyc[:s0]
         cur_nodes, cur_geoms, plist = [cyc[0][0]], [], []
         for he in cyc:
@@ -253,8 +262,11 @@ def build_layout(dec, bnd_dir, point_features, diag) -> CoarseLayout:
     info["patches_by_sides"] = {str(k): int(v) for k, v in sorted(nsides.items())}
     pairs = Counter(tuple(sorted(e)) for e in side_ends)
     vsets = Counter(frozenset(corners_of(p)) for p in patches)
-    all_quads = (all(len(p) == 4 and len(set(corners_of(p))) == 4 for p in patches)
-                 and max(pairs.values()) == 1 and max(vsets.values()) == 1)
+    all_quads = (
+        all(len(p) == 4 and len(set(corners_of(p))) == 4 for p in patches)
+        and max(pairs.values()) == 1
+        and max(vsets.values()) == 1
+    )
     info["midpoint_subdivision"] = not all_quads
 
     edge_curves = {}
@@ -310,8 +322,8 @@ def build_layout(dec, bnd_dir, point_features, diag) -> CoarseLayout:
             for s, fw in plist:
                 first, second = halves[s]
                 if fw:
-                    outs.append(first)          # corner -> mid
-                    ins.append(second)          # mid -> next corner
+                    outs.append(first)  # corner -> mid
+                    ins.append(second)  # mid -> next corner
                 else:
                     outs.append(second[::-1])
                     ins.append(first[::-1])
@@ -322,8 +334,10 @@ def build_layout(dec, bnd_dir, point_features, diag) -> CoarseLayout:
                 cands.append(np.array(poly.centroid.coords[0]))
                 cands.append(np.array(poly.representative_point().coords[0]))
             cen0 = outline.mean(0)
-            nodes = sorted(inside_nodes.get(pid, []),
-                           key=lambda c: (float(np.linalg.norm(sk.pos[c] - cen0)), c))
+            nodes = sorted(
+                inside_nodes.get(pid, []),
+                key=lambda c: (float(np.linalg.norm(sk.pos[c] - cen0)), c),
+            )
             cands += [sk.pos[c] for c in nodes[:40]]
             if not cands:
                 cands.append(cen0)
@@ -332,13 +346,18 @@ def build_layout(dec, bnd_dir, point_features, diag) -> CoarseLayout:
                 good = 0
                 for i in range(k):
                     j = i - 1
-                    quad = _join([outs[i], np.array([verts[ms[i]], q]),
-                                  np.array([q, verts[ms[j]]]), ins[j]])
+                    quad = _join(
+                        [outs[i], np.array([verts[ms[i]], q]), np.array([q, verts[ms[j]]]), ins[j]]
+                    )
                     good += _quad_ok(quad[:-1])
                 if best is None or good > best[0]:
                     best = (good, q)
                 if good == k:
                     break
+            if best is None:  # cands is never empty
+                raise GeometryError(
+                    "a patch has no centre candidate; internal error of the decomposition"
+                )
             if best[0] < k:
                 bad_centres += 1
             centre = len(verts)
@@ -348,8 +367,11 @@ def build_layout(dec, bnd_dir, point_features, diag) -> CoarseLayout:
             for i in range(k):
                 j = (i - 1) % k
                 quads.append([cs[i], ms[i], centre, ms[j]])
-                for a, b, g in ((cs[i], ms[i], outs[i]), (ms[j], cs[i], ins[j]),
-                                (ms[i], centre, np.array([verts[ms[i]], best[1]]))):
+                for a, b, g in (
+                    (cs[i], ms[i], outs[i]),
+                    (ms[j], cs[i], ins[j]),
+                    (ms[i], centre, np.array([verts[ms[i]], best[1]])),
+                ):
                     key = (a, b) if a < b else (b, a)
                     edge_curves[key] = g if a < b else g[::-1]
     V = np.array(verts, float)
@@ -376,18 +398,23 @@ def build_layout(dec, bnd_dir, point_features, diag) -> CoarseLayout:
     info["quads_nonpositive_straight"] = st
     info["quads_invalid_polyline"] = len(bad)
     if bad:
-        log.warning("skeleton layout: %d quads whose edge polylines do not form a simple CCW "
-                    "polygon: %s", len(bad), bad[:10])
+        log.warning(
+            "skeleton layout: %d quads whose edge polylines do not form a simple CCW polygon: %s",
+            len(bad),
+            bad[:10],
+        )
 
-    valence = Counter()
+    valence: Counter[int] = Counter()
     for a, b in edge_curves:
         valence[a] += 1
         valence[b] += 1
     loop_arr = np.array(loop_of, dtype=np.int64)
-    singular = np.array(sorted(v for v in range(len(V)) if loop_arr[v] == -1 and valence[v] != 4),
-                        dtype=np.int64)
-    info["singular_valences"] = {str(k): int(v) for k, v in
-                                 sorted(Counter(valence[v] for v in singular).items())}
+    singular = np.array(
+        sorted(v for v in range(len(V)) if loop_arr[v] == -1 and valence[v] != 4), dtype=np.int64
+    )
+    info["singular_valences"] = {
+        str(k): int(v) for k, v in sorted(Counter(valence[v] for v in singular).items())
+    }
 
     if point_features is not None and len(point_features):
         pf = np.asarray(point_features, float).reshape(-1, 2)
@@ -397,13 +424,23 @@ def build_layout(dec, bnd_dir, point_features, diag) -> CoarseLayout:
             if d.min() <= 1e-6 * diag:
                 ok += 1
             else:
-                log.warning("point feature (%.6g, %.6g) is not a vertex of the skeleton layout; "
-                            "point features are not supported by the skeleton method yet, ignored",
-                            p[0], p[1])
+                log.warning(
+                    "point feature (%.6g, %.6g) is not a vertex of the skeleton layout; "
+                    "point features are not supported by the skeleton method yet, ignored",
+                    p[0],
+                    p[1],
+                )
         info["point_features_matched"] = ok
         info["point_features_ignored"] = int(len(pf) - ok)
 
     sampled = tuple(P[np.array(o)] for o in smp.order)
-    return CoarseLayout(vertices=V, quads=Q, edge_curves=edge_curves,
-                        loop_of_vertex=loop_arr, corner=np.array(corner, bool), singular=singular,
-                        loops=sampled, info=info)
+    return CoarseLayout(
+        vertices=V,
+        quads=Q,
+        edge_curves=edge_curves,
+        loop_of_vertex=loop_arr,
+        corner=np.array(corner, bool),
+        singular=singular,
+        loops=sampled,
+        info=info,
+    )

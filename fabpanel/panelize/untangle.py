@@ -56,8 +56,9 @@ def corner_determinants(vertices: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
 
 
-def _energy_and_gradient(x: np.ndarray, base: np.ndarray, free: np.ndarray, ids, scale: float,
-                         eps: float) -> tuple[float, np.ndarray]:
+def _energy_and_gradient(
+    x: np.ndarray, base: np.ndarray, free: np.ndarray, ids, scale: float, eps: float
+) -> tuple[float, np.ndarray]:
     centre, nxt, prev = ids
     p = base.copy()
     p[free] = x.reshape(-1, 2)
@@ -78,14 +79,17 @@ def _energy_and_gradient(x: np.ndarray, base: np.ndarray, free: np.ndarray, ids,
     n = len(base)
     grad = np.zeros((n, 2))
     for c in range(2):
-        grad[:, c] = (np.bincount(nxt, weights=grad_a[:, c], minlength=n)
-                      + np.bincount(prev, weights=grad_b[:, c], minlength=n)
-                      - np.bincount(centre, weights=grad_a[:, c] + grad_b[:, c], minlength=n))
+        grad[:, c] = (
+            np.bincount(nxt, weights=grad_a[:, c], minlength=n)
+            + np.bincount(prev, weights=grad_b[:, c], minlength=n)
+            - np.bincount(centre, weights=grad_a[:, c] + grad_b[:, c], minlength=n)
+        )
     return energy, (grad[free] / scale).ravel()
 
 
-def untangle(vertices2d: np.ndarray, quads: np.ndarray, movable: np.ndarray,
-             tolerance: float = 1e-6) -> tuple[np.ndarray, dict]:
+def untangle(
+    vertices2d: np.ndarray, quads: np.ndarray, movable: np.ndarray, tolerance: float = 1e-6
+) -> tuple[np.ndarray, dict]:
     """Fold-free, evenly shaped positions of the movable vertices of a planar quad mesh.
 
     vertices2d : (n, 2) float, mm; quads : (m, 4) int, counter-clockwise.
@@ -99,7 +103,10 @@ def untangle(vertices2d: np.ndarray, quads: np.ndarray, movable: np.ndarray,
     movable = np.asarray(movable, dtype=bool)
     ids = _corners(quads)
     det = corner_determinants(vertices2d, quads)
-    info = {"folded_before": int((det <= 0).sum()), "vertices_moved": int(movable.sum())}
+    info: dict[str, int | float] = {
+        "folded_before": int((det <= 0).sum()),
+        "vertices_moved": int(movable.sum()),
+    }
     if not movable.any() or not len(quads):
         info.update(folded_after=info["folded_before"], outer_iterations=0, energy=0.0)
         return vertices2d, info
@@ -113,13 +120,17 @@ def untangle(vertices2d: np.ndarray, quads: np.ndarray, movable: np.ndarray,
     for outer in range(1, MAX_OUTER + 1):
         p = vertices2d.copy()
         p[movable] = x.reshape(-1, 2)
-        worst = float(corner_determinants(p, quads).min()) / scale ** 2
+        worst = float(corner_determinants(p, quads).min()) / scale**2
         # the paper's schedule: eps follows the worst fold, tiny once nothing is folded
         eps = float(np.sqrt(1e-8 + 0.04 * min(worst, 0.0) ** 2))
-        result = minimize(_energy_and_gradient, x,
-                          args=(vertices2d, movable, ids, scale, eps),
-                          jac=True, method="L-BFGS-B",
-                          options={"maxiter": INNER_ITERATIONS, "gtol": 1e-9, "ftol": 1e-12})
+        result = minimize(
+            _energy_and_gradient,
+            x,
+            args=(vertices2d, movable, ids, scale, eps),
+            jac=True,
+            method="L-BFGS-B",
+            options={"maxiter": INNER_ITERATIONS, "gtol": 1e-9, "ftol": 1e-12},
+        )
         x = result.x
         energy = float(result.fun)
         p[movable] = x.reshape(-1, 2)
@@ -129,8 +140,15 @@ def untangle(vertices2d: np.ndarray, quads: np.ndarray, movable: np.ndarray,
         previous = energy
     out = vertices2d.copy()
     out[movable] = x.reshape(-1, 2)
-    info.update(folded_after=int((corner_determinants(out, quads) <= 0).sum()),
-                outer_iterations=outer, energy=energy)
-    log.info("untangle: %d folded corners -> %d in %d outer iterations",
-             info["folded_before"], info["folded_after"], outer)
+    info.update(
+        folded_after=int((corner_determinants(out, quads) <= 0).sum()),
+        outer_iterations=outer,
+        energy=energy,
+    )
+    log.info(
+        "untangle: %d folded corners -> %d in %d outer iterations",
+        info["folded_before"],
+        info["folded_after"],
+        outer,
+    )
     return out, info

@@ -48,15 +48,18 @@ MAPPING_WARNING = 0.05
 #: (exporters repeat a shared vertex with identical digits; the grid absorbs only rounding)
 WELD_RELATIVE = 1e-9
 
-_FIX_QUADS = ("every face of a panel layout must be a quad; redraw or rebuild that face with "
-              "four corners (e.g. join the triangle with its neighbour) and export again")
+_FIX_QUADS = (
+    "every face of a panel layout must be a quad; redraw or rebuild that face with "
+    "four corners (e.g. join the triangle with its neighbour) and export again"
+)
 
 
 # --------------------------------------------------------------------------------------------
 # the method
 # --------------------------------------------------------------------------------------------
-def user_layout(path: str | Path, units: str | None, surface: Surface, query: SurfaceQuery,
-                job: Job) -> PanelLayout:
+def user_layout(
+    path: str | Path, units: str | None, surface: Surface, query: SurfaceQuery, job: Job
+) -> PanelLayout:
     """The quad mesh in ``path`` as the panel layout of ``surface`` (see the module docstring).
 
     path : OBJ, PLY or 3DM file of quads.
@@ -70,11 +73,13 @@ def user_layout(path: str | Path, units: str | None, surface: Surface, query: Su
     path = Path(path)
     name = path.name
     drawn, quads = read_quad_mesh(path, units)
-    drawn, quads = _weld(drawn, quads)
+    drawn, quads = _weld(drawn - surface.origin, quads)  # drawn in the design's frame
     repeated = np.flatnonzero(np.array([len(set(q)) < 4 for q in quads.tolist()], dtype=bool))
     if len(repeated):
-        raise InputError(f"{name}: face {int(repeated[0])} has two corners at the same point (a "
-                         f"collapsed side); {_FIX_QUADS}")
+        raise InputError(
+            f"{name}: face {int(repeated[0])} has two corners at the same point (a "
+            f"collapsed side); {_FIX_QUADS}"
+        )
     _check_manifold(name, quads)
     vertices, _, distances = query.closest(drawn)
     quads, flipped = _orient_outwards(vertices, quads, query)
@@ -84,24 +89,49 @@ def user_layout(path: str | Path, units: str | None, surface: Surface, query: Su
     loops = [surface.vertices[loop] for loop in surface.boundary_loops]
     metrics, issues = layout_metrics(layout, query, job.panelize.panel_size, job.cutting, loops)
     edges = layout.edges
-    median_edge = float(np.median(np.linalg.norm(vertices[edges[:, 1]] - vertices[edges[:, 0]],
-                                                 axis=1)))
+    median_edge = float(
+        np.median(np.linalg.norm(vertices[edges[:, 1]] - vertices[edges[:, 0]], axis=1))
+    )
     largest = float(distances.max())
-    metrics = {**metrics, "source": name, "flipped_quads": int(flipped.sum()),
-               "mapping_distance_mm": {"max": round(largest, 3),
-                                       "median": round(float(np.median(distances)), 3),
-                                       "worst_vertex": int(np.argmax(distances))}}
+    metrics = {
+        **metrics,
+        "source": name,
+        "flipped_quads": int(flipped.sum()),
+        "mapping_distance_mm": {
+            "max": round(largest, 3),
+            "median": round(float(np.median(distances)), 3),
+            "worst_vertex": int(np.argmax(distances)),
+        },
+    }
     if largest > MAPPING_WARNING * median_edge:
-        issues = (*issues, Issue(
-            "layout-off-surface",
-            f"{name}: the drawn layout lies up to {largest:.0f} mm from the design surface "
-            f"(vertex {int(np.argmax(distances))}), more than {100 * MAPPING_WARNING:g} % of the "
-            f"median panel edge ({median_edge:.0f} mm); check that it was drawn on this surface "
-            f"and in the job's units", "", "warning"))
-    log.info("user layout %s: %d panels, largest mapping distance %.3f mm, %d quads flipped",
-             name, len(quads), largest, int(flipped.sum()))
-    return PanelLayout(vertices=vertices, quads=quads, panel_ids=ids, method="layout",
-                       metrics=metrics, issues=issues)
+        issues = (
+            *issues,
+            Issue(
+                "layout-off-surface",
+                f"{name}: the drawn layout lies up to {largest:.0f} mm from the design surface "
+                f"(vertex {int(np.argmax(distances))}), more than {100 * MAPPING_WARNING:g} % of the "
+                f"median panel edge ({median_edge:.0f} mm); check that it was drawn on this surface "
+                f"and in the job's units",
+                "",
+                "warning",
+            ),
+        )
+    log.info(
+        "user layout %s: %d panels, largest mapping distance %.3f mm, %d quads flipped",
+        name,
+        len(quads),
+        largest,
+        int(flipped.sum()),
+    )
+    return PanelLayout(
+        vertices=vertices,
+        quads=quads,
+        panel_ids=ids,
+        method="layout",
+        metrics=metrics,
+        issues=issues,
+        origin=surface.origin,
+    )
 
 
 def _weld(vertices: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -111,8 +141,9 @@ def _weld(vertices: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
         return vertices[:0], quads
     points = vertices[used]
     low = points.min(axis=0)
-    step = max(float(np.linalg.norm(points.max(axis=0) - low)) * WELD_RELATIVE,
-               np.finfo(float).tiny)
+    step = max(
+        float(np.linalg.norm(points.max(axis=0) - low)) * WELD_RELATIVE, np.finfo(float).tiny
+    )
     keys = np.round((points - low) / step).astype(np.int64)
     _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
     # number the merged vertices in the order of their first occurrence in the file
@@ -135,13 +166,16 @@ def _check_manifold(name: str, quads: np.ndarray) -> None:
     if counts.max() > 2:
         bad = int(np.argmax(counts))
         faces = sorted({int(i) // 4 for i in np.flatnonzero(inverse.ravel() == bad)})
-        raise InputError(f"{name}: the edge between vertices {edges[bad, 0]} and {edges[bad, 1]} "
-                         f"is shared by {counts[bad]} faces ({', '.join(map(str, faces))}); a "
-                         f"panel side can join at most two panels, remove the extra faces")
+        raise InputError(
+            f"{name}: the edge between vertices {edges[bad, 0]} and {edges[bad, 1]} "
+            f"is shared by {counts[bad]} faces ({', '.join(map(str, faces))}); a "
+            f"panel side can join at most two panels, remove the extra faces"
+        )
 
 
-def _orient_outwards(vertices: np.ndarray, quads: np.ndarray,
-                     query: SurfaceQuery) -> tuple[np.ndarray, np.ndarray]:
+def _orient_outwards(
+    vertices: np.ndarray, quads: np.ndarray, query: SurfaceQuery
+) -> tuple[np.ndarray, np.ndarray]:
     """Quads with corners reordered ``[0, 3, 2, 1]`` where they face inwards, and which were."""
     corners = vertices[quads]
     normals = np.cross(corners[:, 2] - corners[:, 0], corners[:, 3] - corners[:, 1])
@@ -164,9 +198,11 @@ def _check_consistent(name: str, quads: np.ndarray) -> None:
     same = np.flatnonzero(sides[first, 0] == sides[second, 0])
     if len(same):
         a, b = int(first[same[0]]) // 4, int(second[same[0]]) // 4
-        raise InputError(f"{name}: faces {a} and {b} fold over each other on the surface (both "
-                         f"face outwards but run their shared side the same way); the drawing "
-                         f"overlaps itself there, redraw it")
+        raise InputError(
+            f"{name}: faces {a} and {b} fold over each other on the surface (both "
+            f"face outwards but run their shared side the same way); the drawing "
+            f"overlaps itself there, redraw it"
+        )
 
 
 # --------------------------------------------------------------------------------------------
@@ -182,8 +218,10 @@ def read_quad_mesh(path: str | Path, units: str | None) -> tuple[np.ndarray, np.
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in LAYOUT_FORMATS:
-        raise InputError(f"{path.name}: a panel layout must be an OBJ, PLY or 3DM quad mesh, not "
-                         f"{suffix or '(no extension)'!r}; export the layout as OBJ")
+        raise InputError(
+            f"{path.name}: a panel layout must be an OBJ, PLY or 3DM quad mesh, not "
+            f"{suffix or '(no extension)'!r}; export the layout as OBJ"
+        )
     if not path.is_file():
         raise InputError(f"{path.name}: layout file not found ({path}); check [panelize] layout")
     if suffix == ".3dm":
@@ -200,19 +238,23 @@ def read_quad_mesh(path: str | Path, units: str | None) -> tuple[np.ndarray, np.
     quads = np.array(faces, dtype=np.int64).reshape(-1, 4)
     if quads.min() < 0 or quads.max() >= len(vertices):
         bad = int(np.flatnonzero((quads < 0).any(axis=1) | (quads >= len(vertices)).any(axis=1))[0])
-        raise InputError(f"{path.name}: face {bad} refers to a vertex that does not exist (the "
-                         f"file has {len(vertices)}); export the layout again")
+        raise InputError(
+            f"{path.name}: face {bad} refers to a vertex that does not exist (the "
+            f"file has {len(vertices)}); export the layout again"
+        )
     vertices = np.asarray(vertices, dtype=float).reshape(-1, 3)
     if not np.isfinite(vertices).all():
-        raise InputError(f"{path.name}: a vertex has a NaN or infinite coordinate; export the "
-                         f"layout again")
+        raise InputError(
+            f"{path.name}: a vertex has a NaN or infinite coordinate; export the layout again"
+        )
     return vertices * scale, quads
 
 
 def _scale(name: str, units: str | None) -> float:
     if units is None:
-        raise InputError(f"{name}: the layout mesh carries no units; set [input] units (m, cm or "
-                         f"mm) in the job")
+        raise InputError(
+            f"{name}: the layout mesh carries no units; set [input] units (m, cm or mm) in the job"
+        )
     return length_scale(units)
 
 
@@ -229,8 +271,10 @@ def _read_obj(path: Path) -> tuple[np.ndarray, list[list[int]]]:
             try:
                 vertices.append([float(t) for t in tokens[1:4]])
             except ValueError as err:
-                raise InputError(f"{path.name}: line {number}: cannot read the vertex "
-                                 f"{line.strip()!r}; export the layout again") from err
+                raise InputError(
+                    f"{path.name}: line {number}: cannot read the vertex "
+                    f"{line.strip()!r}; export the layout again"
+                ) from err
             if len(vertices[-1]) != 3:
                 raise InputError(f"{path.name}: line {number}: a vertex needs x, y and z")
         elif tokens[0] == "f":
@@ -239,21 +283,39 @@ def _read_obj(path: Path) -> tuple[np.ndarray, list[list[int]]]:
                 try:
                     index = int(token.split("/", 1)[0])
                 except ValueError as err:
-                    raise InputError(f"{path.name}: line {number}: cannot read the face "
-                                     f"{line.strip()!r}; export the layout again") from err
+                    raise InputError(
+                        f"{path.name}: line {number}: cannot read the face "
+                        f"{line.strip()!r}; export the layout again"
+                    ) from err
                 if index == 0 or index > len(vertices) or index < -len(vertices):
-                    raise InputError(f"{path.name}: line {number}: face {len(faces)} refers to "
-                                     f"vertex {index}, but {len(vertices)} vertices come before "
-                                     f"it; export the layout again")
+                    raise InputError(
+                        f"{path.name}: line {number}: face {len(faces)} refers to "
+                        f"vertex {index}, but {len(vertices)} vertices come before "
+                        f"it; export the layout again"
+                    )
                 face.append(index - 1 if index > 0 else len(vertices) + index)
             faces.append(face)
     return np.array(vertices, dtype=float).reshape(-1, 3), faces
 
 
-_PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2",
-              "int16": "i2", "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4",
-              "uint": "u4", "uint32": "u4", "float": "f4", "float32": "f4", "double": "f8",
-              "float64": "f8"}
+_PLY_TYPES = {
+    "char": "i1",
+    "int8": "i1",
+    "uchar": "u1",
+    "uint8": "u1",
+    "short": "i2",
+    "int16": "i2",
+    "ushort": "u2",
+    "uint16": "u2",
+    "int": "i4",
+    "int32": "i4",
+    "uint": "u4",
+    "uint32": "u4",
+    "float": "f4",
+    "float32": "f4",
+    "double": "f8",
+    "float64": "f8",
+}
 
 
 def _read_ply(path: Path) -> tuple[np.ndarray, list[list[int]]]:
@@ -261,12 +323,14 @@ def _read_ply(path: Path) -> tuple[np.ndarray, list[list[int]]]:
     data = path.read_bytes()
     end = re.search(rb"end_header\r?\n", data)
     if not data.startswith(b"ply") or end is None:
-        raise InputError(f"{path.name}: not a PLY file (no 'ply' ... 'end_header' header); export "
-                         f"the layout again")
+        raise InputError(
+            f"{path.name}: not a PLY file (no 'ply' ... 'end_header' header); export "
+            f"the layout again"
+        )
     elements: list[tuple[str, int, list[tuple]]] = []
     fmt = "ascii"
     try:
-        for line in data[:end.start()].decode("ascii", errors="replace").splitlines():
+        for line in data[: end.start()].decode("ascii", errors="replace").splitlines():
             words = line.split()
             if not words or words[0] in ("ply", "comment", "obj_info"):
                 continue
@@ -279,9 +343,10 @@ def _read_ply(path: Path) -> tuple[np.ndarray, list[list[int]]]:
             elif words[0] == "property":
                 elements[-1][2].append((words[2], _PLY_TYPES[words[1]]))
     except (IndexError, KeyError, ValueError) as err:
-        raise InputError(f"{path.name}: malformed PLY header ({err}); export the layout "
-                         f"again") from err
-    body = data[end.end():]
+        raise InputError(
+            f"{path.name}: malformed PLY header ({err}); export the layout again"
+        ) from err
+    body = data[end.end() :]
     try:
         if fmt == "ascii":
             rows = _ply_ascii(body, elements)
@@ -292,12 +357,12 @@ def _read_ply(path: Path) -> tuple[np.ndarray, list[list[int]]]:
     except (IndexError, ValueError, struct.error) as err:
         if isinstance(err, InputError):
             raise
-        raise InputError(f"{path.name}: PLY data shorter or other than its header says; export "
-                         f"the layout again") from err
+        raise InputError(
+            f"{path.name}: PLY data shorter or other than its header says; export the layout again"
+        ) from err
     vertex = rows.get("vertex", {})
     if not all(k in vertex for k in "xyz"):
-        raise InputError(f"{path.name}: no vertex x, y, z in the PLY file; export the layout "
-                         f"again")
+        raise InputError(f"{path.name}: no vertex x, y, z in the PLY file; export the layout again")
     vertices = np.stack([np.asarray(vertex[k], dtype=float) for k in "xyz"], axis=1)
     face = rows.get("face", {})
     faces = face.get("vertex_indices", face.get("vertex_index", []))
@@ -314,8 +379,9 @@ def _ply_ascii(body: bytes, elements: list) -> dict:
             for prop in properties:
                 if len(prop) == 3:
                     n = int(tokens[position])
-                    columns[prop[0]].append([float(t) for t in tokens[position + 1:
-                                                                      position + 1 + n]])
+                    columns[prop[0]].append(
+                        [float(t) for t in tokens[position + 1 : position + 1 + n]]
+                    )
                     position += 1 + n
                 else:
                     columns[prop[0]].append(float(tokens[position]))
@@ -353,8 +419,14 @@ def _ply_binary(body: bytes, elements: list, order: str) -> dict:
 
 
 #: Rhino unit systems fabpanel reads, to millimetres
-_RHINO_UNITS = {"Millimeters": 1.0, "Centimeters": 10.0, "Decimeters": 100.0, "Meters": 1000.0,
-                "Inches": 25.4, "Feet": 304.8}
+_RHINO_UNITS = {
+    "Millimeters": 1.0,
+    "Centimeters": 10.0,
+    "Decimeters": 100.0,
+    "Meters": 1000.0,
+    "Inches": 25.4,
+    "Feet": 304.8,
+}
 
 
 def _read_3dm(path: Path) -> tuple[np.ndarray, list[list[int]], float | None]:
@@ -366,28 +438,38 @@ def _read_3dm(path: Path) -> tuple[np.ndarray, list[list[int]], float | None]:
     try:
         import rhino3dm
     except ImportError as err:
-        raise InputError(f"{path.name}: reading 3DM needs the rhino3dm package (pip install "
-                         f"rhino3dm), or export the layout as OBJ") from err
+        raise InputError(
+            f"{path.name}: reading 3DM needs the rhino3dm package (pip install "
+            f"rhino3dm), or export the layout as OBJ"
+        ) from err
     model = rhino3dm.File3dm.Read(str(path))
     if model is None:
-        raise InputError(f"{path.name}: cannot read as a Rhino 3DM file; save it again or export "
-                         f"the layout as OBJ")
-    for obj in model.Objects:
+        raise InputError(
+            f"{path.name}: cannot read as a Rhino 3DM file; save it again or export "
+            f"the layout as OBJ"
+        )
+    # rhino3dm's stubs omit the runtime __iter__/__len__/__getitem__ of its tables and lists
+    for obj in model.Objects:  # type: ignore[attr-defined]
         mesh = obj.Geometry
         if isinstance(mesh, rhino3dm.Mesh):
             break
     else:
-        raise InputError(f"{path.name}: holds no mesh object; convert the layout to a quad mesh "
-                         f"in Rhino (Mesh from SubD or QuadRemesh) and save again")
-    vertices = np.array([[p.X, p.Y, p.Z] for p in
-                         (mesh.Vertices[i] for i in range(len(mesh.Vertices)))], dtype=float)
+        raise InputError(
+            f"{path.name}: holds no mesh object; convert the layout to a quad mesh "
+            f"in Rhino (Mesh from SubD or QuadRemesh) and save again"
+        )
+    n_vertices = len(mesh.Vertices)  # type: ignore[arg-type]
+    points = [mesh.Vertices[i] for i in range(n_vertices)]  # type: ignore[index]
+    vertices = np.array([[p.X, p.Y, p.Z] for p in points], dtype=float)
     faces = []
     for i in range(mesh.Faces.Count):
-        a, b, c, d = mesh.Faces[i]
+        a, b, c, d = mesh.Faces[i]  # type: ignore[index]
         faces.append([a, b, c] if c == d else [a, b, c, d])
     unit = model.Settings.ModelUnitSystem.name
     scale = _RHINO_UNITS.get(unit)
     if scale is None and unit not in ("None", "Unset"):
-        raise InputError(f"{path.name}: Rhino unit system {unit} is not supported; use "
-                         f"millimeters, centimeters or meters")
+        raise InputError(
+            f"{path.name}: Rhino unit system {unit} is not supported; use "
+            f"millimeters, centimeters or meters"
+        )
     return vertices, faces, scale

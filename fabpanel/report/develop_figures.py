@@ -20,10 +20,11 @@ def gaussian_curvature(samples: np.ndarray) -> np.ndarray:
     (Gauss-Bonnet), carried to the panel's border samples from the nearest interior one, then
     averaged over each cell's four corners.
     """
-    cells = _cell_areas(samples)                                     # (m, k-1, k-1) mm^2
-    vertex_area = 0.25 * (cells[:, :-1, :-1] + cells[:, 1:, :-1] + cells[:, 1:, 1:]
-                          + cells[:, :-1, 1:])
-    curvature = angle_defects(samples) / vertex_area * 1e6           # 1/m^2
+    cells = _cell_areas(samples)  # (m, k-1, k-1) mm^2
+    vertex_area = 0.25 * (
+        cells[:, :-1, :-1] + cells[:, 1:, :-1] + cells[:, 1:, 1:] + cells[:, :-1, 1:]
+    )
+    curvature = angle_defects(samples) / vertex_area * 1e6  # 1/m^2
     full = np.pad(curvature, ((0, 0), (1, 1), (1, 1)), mode="edge")
     return _cell_means(full)
 
@@ -35,21 +36,36 @@ def _cell_areas(samples: np.ndarray) -> np.ndarray:
 
 
 def _cell_means(values: np.ndarray) -> np.ndarray:
-    return 0.25 * (values[:, :-1, :-1] + values[:, 1:, :-1] + values[:, 1:, 1:]
-                   + values[:, :-1, 1:])
+    return 0.25 * (
+        values[:, :-1, :-1] + values[:, 1:, :-1] + values[:, 1:, 1:] + values[:, :-1, 1:]
+    )
 
 
 def _plan_cells(ax, samples: np.ndarray, values: np.ndarray, **style):
     """Every grid cell as a filled quad in plan (x, y in m), coloured by ``values``."""
     from matplotlib.collections import PolyCollection
 
-    corners = np.stack([samples[:, :-1, :-1], samples[:, 1:, :-1], samples[:, 1:, 1:],
-                        samples[:, :-1, 1:]], axis=3)[..., :2] / 1000.0
-    cells = PolyCollection(corners.reshape(-1, 4, 2), array=values.ravel(), edgecolors="none",
-                           **style)
+    corners = (
+        np.stack(
+            [samples[:, :-1, :-1], samples[:, 1:, :-1], samples[:, 1:, 1:], samples[:, :-1, 1:]],
+            axis=3,
+        )[..., :2]
+        / 1000.0
+    )
+    # matplotlib's stubs want a Sequence; an (N, 4, 2) array is documented and takes a fast path
+    cells = PolyCollection(
+        corners.reshape(-1, 4, 2),  # type: ignore[arg-type]
+        array=values.ravel(),
+        edgecolors="none",
+        **style,
+    )
     ax.add_collection(cells)
-    outline = np.concatenate([samples[:, :, 0], samples[:, -1, :], samples[:, ::-1, -1],
-                              samples[:, 0, ::-1]], axis=1)[..., :2] / 1000.0
+    outline = (
+        np.concatenate(
+            [samples[:, :, 0], samples[:, -1, :], samples[:, ::-1, -1], samples[:, 0, ::-1]], axis=1
+        )[..., :2]
+        / 1000.0
+    )
     for line in outline:
         ax.plot(line[:, 0], line[:, 1], color="k", linewidth=0.3)
     ax.set_aspect("equal")
@@ -74,13 +90,14 @@ def curvature_figure(developed) -> str | None:
     after = gaussian_curvature(developed.samples)
     limit = max(float(np.percentile(np.abs(before), 99)), CURVATURE_SCALE_FLOOR)
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
-    for ax, grids, values, title in ((axes[0], developed.design_samples, before,
-                                      "design surface"),
-                                     (axes[1], developed.samples, after,
-                                      f"after '{developed.method}'")):
+    for ax, grids, values, title in (
+        (axes[0], developed.design_samples, before, "design surface"),
+        (axes[1], developed.samples, after, f"after '{developed.method}'"),
+    ):
         cells = _plan_cells(ax, grids, values, cmap="RdBu_r", clim=(-limit, limit))
-        ax.set_title(f"Gaussian curvature, {title}: |K| max {np.abs(values).max():.3g} 1/m²",
-                     fontsize=10)
+        ax.set_title(
+            f"Gaussian curvature, {title}: |K| max {np.abs(values).max():.3g} 1/m²", fontsize=10
+        )
     fig.colorbar(cells, ax=axes, shrink=0.8, label="K [1/m²]")
     data = _png(fig)
     plt.close(fig)
@@ -100,10 +117,14 @@ def deviation_figure(developed) -> str | None:
 
     values = _cell_means(developed.deviation)
     fig, ax = plt.subplots(figsize=(6.5, 4.6), constrained_layout=True)
-    cells = _plan_cells(ax, developed.samples, values, cmap="viridis",
-                        clim=(0.0, max(float(values.max()), 1e-3)))
-    ax.set_title(f"deviation from the design surface: max {developed.deviation.max():.2f} mm, "
-                 f"mean {developed.deviation.mean():.2f} mm", fontsize=10)
+    cells = _plan_cells(
+        ax, developed.samples, values, cmap="viridis", clim=(0.0, max(float(values.max()), 1e-3))
+    )
+    ax.set_title(
+        f"deviation from the design surface: max {developed.deviation.max():.2f} mm, "
+        f"mean {developed.deviation.mean():.2f} mm",
+        fontsize=10,
+    )
     fig.colorbar(cells, ax=ax, shrink=0.8, label="mm")
     data = _png(fig)
     plt.close(fig)

@@ -46,8 +46,11 @@ def _shape_figure(structure, field: np.ndarray, title: str, label: str, cmap: st
     values = amplitude[polys].mean(axis=1)
     fig = plt.figure(figsize=(8, 5.2))
     ax = fig.add_subplot(projection="3d")
-    ax.add_collection3d(Poly3DCollection(shell.nodes[polys] / 1000.0, facecolor="none",
-                                         edgecolor="0.75", linewidth=0.3))
+    ax.add_collection3d(
+        Poly3DCollection(
+            shell.nodes[polys] / 1000.0, facecolor="none", edgecolor="0.75", linewidth=0.3
+        )
+    )
     faces = Poly3DCollection(moved[polys], cmap=cmap, edgecolor="k", linewidth=0.1)
     faces.set_array(values)
     ax.add_collection3d(faces)
@@ -62,9 +65,13 @@ def _shape_figure(structure, field: np.ndarray, title: str, label: str, cmap: st
 def deformed_figure(structure) -> str:
     """Base64 PNG: the top sheet under the SLS combination with the largest displacement."""
     s = structure.summary["deflection"]
-    return _shape_figure(structure, structure.displacement,
-                         f"deformed shape, {s['combination']}: max {s['max_mm']:.3g} mm "
-                         f"({s['ratio']})", "|u| [mm]", "viridis")
+    return _shape_figure(
+        structure,
+        structure.displacement,
+        f"deformed shape, {s['combination']}: max {s['max_mm']:.3g} mm ({s['ratio']})",
+        "|u| [mm]",
+        "viridis",
+    )
 
 
 def buckling_figure(structure) -> str | None:
@@ -72,9 +79,14 @@ def buckling_figure(structure) -> str | None:
     if structure.mode_shape is None:
         return None
     b = structure.summary["buckling"]
-    return _shape_figure(structure, structure.mode_shape,
-                         f"buckling mode 1 under {b['combination']}: factor {b['first']:.3g} "
-                         f"(required {b['required']:.3g})", "relative amplitude", "magma")
+    return _shape_figure(
+        structure,
+        structure.mode_shape,
+        f"buckling mode 1 under {b['combination']}: factor {b['first']:.3g} "
+        f"(required {b['required']:.3g})",
+        "relative amplitude",
+        "magma",
+    )
 
 
 def utilisation_figure(structure) -> str:
@@ -91,16 +103,19 @@ def utilisation_figure(structure) -> str:
     shell = structure.shell
     polys, elements = _sheet(structure)
     plan = shell.nodes[polys][..., :2] / 1000.0
-    per_panel = np.array([structure.summary["panels"][pid]["utilisation"]
-                          for pid in structure.panel_ids])
+    per_panel = np.array(
+        [structure.summary["panels"][pid]["utilisation"] for pid in structure.panel_ids]
+    )
     top = structure.utilisation[elements]
     limit = max(float(structure.utilisation.max()), 1e-6)
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
-    for ax, values, title in ((axes[0], top, "top sheet elements"),
-                              (axes[1], per_panel[shell.panel[elements, 0]],
-                               "panels (largest of sheets and ribs)")):
-        cells = PolyCollection(plan, array=values, cmap="RdYlGn_r", clim=(0, limit),
-                               edgecolors="none")
+    for ax, values, title in (
+        (axes[0], top, "top sheet elements"),
+        (axes[1], per_panel[shell.panel[elements, 0]], "panels (largest of sheets and ribs)"),
+    ):
+        cells = PolyCollection(
+            plan, array=values, cmap="RdYlGn_r", clim=(0, limit), edgecolors="none"
+        )
         ax.add_collection(cells)
         ax.set_aspect("equal")
         ax.autoscale_view()
@@ -127,46 +142,87 @@ def structure_section(result) -> str:
     mesh = summary["mesh"]
     reactions = "; ".join(f"{k}: {v['error']:.4%}" for k, v in summary["load_cases"].items())
     rows = [
-        ("model", (f"{mesh['elements']} S8R, {mesh['nodes']} nodes, "
-                   f"{mesh['elements_per_side']} per panel side, "
-                   f"{summary['supports']['nodes']} pinned nodes ({summary['supports']['mode']})")),
-        ("mass", (f"{m['model_kg']} kg in the model, {m['parts_kg']} kg of parts "
-                  f"({m['error']:+.3%}): {ok(m['ok'])}")),
+        (
+            "model",
+            (
+                f"{mesh['elements']} S8R, {mesh['nodes']} nodes, "
+                f"{mesh['elements_per_side']} per panel side, "
+                f"{summary['supports']['nodes']} pinned nodes ({summary['supports']['mode']})"
+            ),
+        ),
+        (
+            "mass",
+            (
+                f"{m['model_kg']} kg in the model, {m['parts_kg']} kg of parts "
+                f"({m['error']:+.3%}): {ok(m['ok'])}"
+            ),
+        ),
         ("reactions", f"{reactions}: {ok(summary['checks']['reactions'])}"),
-        ("deflection (SLS)", (f"{d['max_mm']} mm = {d['ratio']} at {d['panel']} "
-                              f"({d['combination']}); limit {d['limit_mm']} mm: {ok(d['ok'])}")),
-        ("von Mises (ULS)", (f"{s['max_von_mises_MPa']} MPa, utilisation {s['utilisation']} at "
-                             f"{s['part']} ({s['combination']}): {ok(s['ok'])}")),
-        ("buckling", (f"factors {', '.join(f'{f:.3g}' for f in b['factors'])} under "
-                      f"{b['combination']}; required {b['required']:.3g}: {ok(b['ok'])}")),
+        (
+            "deflection (SLS)",
+            (
+                f"{d['max_mm']} mm = {d['ratio']} at {d['panel']} "
+                f"({d['combination']}); limit {d['limit_mm']} mm: {ok(d['ok'])}"
+            ),
+        ),
+        (
+            "von Mises (ULS)",
+            (
+                f"{s['max_von_mises_MPa']} MPa, utilisation {s['utilisation']} at "
+                f"{s['part']} ({s['combination']}): {ok(s['ok'])}"
+            ),
+        ),
+        (
+            "buckling",
+            (
+                f"factors {', '.join(f'{f:.3g}' for f in b['factors'])} under "
+                f"{b['combination']}; required {b['required']:.3g}: {ok(b['ok'])}"
+            ),
+        ),
         ("stiffeners", mesh["stiffeners"]),
     ]
     if b.get("note"):
         rows.append(("buckling note", b["note"]))
     parts.append(_table(rows))
     if structure is not None and structure.shell is not None:
-        for figure, alt in ((deformed_figure, "deformed shape"),
-                            (utilisation_figure, "utilisation map"),
-                            (buckling_figure, "first buckling mode")):
+        for figure, alt in (
+            (deformed_figure, "deformed shape"),
+            (utilisation_figure, "utilisation map"),
+            (buckling_figure, "first buckling mode"),
+        ):
             data = figure(structure)
             if data is not None:
                 parts.append(f'<img alt="{alt}" src="data:image/png;base64,{data}">')
-    cases = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(v['description'])}</td>"
-                    f"<td>{_fmt(v['applied_N'])}</td><td>{_fmt(v['reaction_N'])}</td>"
-                    f"<td>{v['error']:.2e}</td></tr>" for k, v in summary["load_cases"].items())
-    parts.append("<h3>Load cases</h3><table><tr><th>case</th><th>load</th><th>applied [N]</th>"
-                 f"<th>reaction [N]</th><th>error</th></tr>{cases}</table>")
-    modes = "".join(f"<tr><td>{mode['mode']}</td><td>{mode['factor']:.4g}</td>"
-                    f"<td>{mode['panel_count']}: {html.escape(', '.join(mode['panels']))}</td>"
-                    f"</tr>" for mode in b["modes"])
-    parts.append("<h3>Buckling modes</h3><table><tr><th>mode</th><th>factor</th>"
-                 f"<th>panels involved</th></tr>{modes}</table>")
+    cases = "".join(
+        f"<tr><td>{html.escape(k)}</td><td>{html.escape(v['description'])}</td>"
+        f"<td>{_fmt(v['applied_N'])}</td><td>{_fmt(v['reaction_N'])}</td>"
+        f"<td>{v['error']:.2e}</td></tr>"
+        for k, v in summary["load_cases"].items()
+    )
+    parts.append(
+        "<h3>Load cases</h3><table><tr><th>case</th><th>load</th><th>applied [N]</th>"
+        f"<th>reaction [N]</th><th>error</th></tr>{cases}</table>"
+    )
+    modes = "".join(
+        f"<tr><td>{mode['mode']}</td><td>{mode['factor']:.4g}</td>"
+        f"<td>{mode['panel_count']}: {html.escape(', '.join(mode['panels']))}</td>"
+        f"</tr>"
+        for mode in b["modes"]
+    )
+    parts.append(
+        "<h3>Buckling modes</h3><table><tr><th>mode</th><th>factor</th>"
+        f"<th>panels involved</th></tr>{modes}</table>"
+    )
     panels = sorted(summary["panels"].items(), key=lambda kv: -kv[1]["utilisation"])
-    body = "".join(f"<tr><td>{pid}</td><td>{rec['utilisation']:.3f}</td>"
-                   f"<td>{html.escape(rec['part'])}</td><td>{rec['displacement_mm']:.3g}</td>"
-                   f"<td>{', '.join(map(str, rec['buckling_modes']))}</td></tr>"
-                   for pid, rec in panels)
-    parts.append("<details><summary>Per panel (largest utilisation first)</summary><table><tr>"
-                 "<th>panel</th><th>utilisation</th><th>where</th><th>max |u| SLS [mm]</th>"
-                 f"<th>in buckling modes</th></tr>{body}</table></details>")
+    body = "".join(
+        f"<tr><td>{pid}</td><td>{rec['utilisation']:.3f}</td>"
+        f"<td>{html.escape(rec['part'])}</td><td>{rec['displacement_mm']:.3g}</td>"
+        f"<td>{', '.join(map(str, rec['buckling_modes']))}</td></tr>"
+        for pid, rec in panels
+    )
+    parts.append(
+        "<details><summary>Per panel (largest utilisation first)</summary><table><tr>"
+        "<th>panel</th><th>utilisation</th><th>where</th><th>max |u| SLS [mm]</th>"
+        f"<th>in buckling modes</th></tr>{body}</table></details>"
+    )
     return "".join(parts)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections import Counter
+from collections import Counter, defaultdict
 
 
 def summarise(result, timings: dict[str, float], structure: dict) -> dict:
@@ -12,41 +12,55 @@ def summarise(result, timings: dict[str, float], structure: dict) -> dict:
         "stages_run": list(result.stages_run),
         "timings_s": {k: round(v, 3) for k, v in timings.items()},
         "structure": structure,
-        "issues": {"errors": sum(i.severity == "error" for i in result.issues),
-                   "warnings": sum(i.severity == "warning" for i in result.issues)},
+        "issues": {
+            "errors": sum(i.severity == "error" for i in result.issues),
+            "warnings": sum(i.severity == "warning" for i in result.issues),
+        },
     }
     if result.layout is not None:
         m = result.layout.metrics
-        summary["panels"] = {"count": m["panels"], "method": result.layout.method,
-                             "singular_valences": m.get("singular_valences", {}),
-                             "boundary_coverage_mm": m.get("boundary_coverage_mm"),
-                             "edge_length_mm": m["edge_length_mm"],
-                             "corner_angle_deg": m["corner_angle_deg"],
-                             "largest_panel_mm": m["largest_panel_mm"]}
+        summary["panels"] = {
+            "count": m["panels"],
+            "method": result.layout.method,
+            "singular_valences": m.get("singular_valences", {}),
+            "boundary_coverage_mm": m.get("boundary_coverage_mm"),
+            "edge_length_mm": m["edge_length_mm"],
+            "corner_angle_deg": m["corner_angle_deg"],
+            "largest_panel_mm": m["largest_panel_mm"],
+        }
     if result.developed is not None:
         m = result.developed.metrics
         summary["developability"] = {
-            "method": result.developed.method, "classes": m["classes"],
-            "unroll_strain_max": m["unroll_strain"]["max"], "deviation_mm": m["deviation_mm"],
-            "bending_radius_mm_min": m["bending_radius_mm_min"]}
+            "method": result.developed.method,
+            "classes": m["classes"],
+            "unroll_strain_max": m["unroll_strain"]["max"],
+            "deviation_mm": m["deviation_mm"],
+            "bending_radius_mm_min": m["bending_radius_mm_min"],
+        }
     if result.model is not None:
         parts = result.model.parts
         kinds = Counter(p.kind for p in parts)
-        mass_by_kind = Counter()
+        mass_by_kind: defaultdict[str, float] = defaultdict(float)
         for p in parts:
             mass_by_kind[p.kind] += p.mass
         summary["parts"] = {
-            "count": len(parts), "by_kind": dict(kinds),
+            "count": len(parts),
+            "by_kind": dict(kinds),
             "mass_kg": round(result.model.mass, 2),
             "mass_by_kind_kg": {k: round(v, 2) for k, v in mass_by_kind.items()},
             "mass_per_m2_kg": round(result.model.mass / (result.surface.area / 1e6), 2),
-            "checks": {k: v for k, v in result.model.metrics.items() if k != "panels"}}
+            "checks": {k: v for k, v in result.model.metrics.items() if k != "panels"},
+        }
     if result.flat is not None:
         # per-part strains stay in the manifest
-        summary["flat"] = {k: v for k, v in result.flat.metrics.items()
-                           if k not in ("per_part", "strain_by_part")}
+        summary["flat"] = {
+            k: v for k, v in result.flat.metrics.items() if k not in ("per_part", "strain_by_part")
+        }
     if result.nests is not None:
-        summary["nests"] = {k: v for k, v in result.nests.metrics.items()
-                            if not isinstance(v, (list, dict)) or k in ("utilisation",)}
+        summary["nests"] = {
+            k: v
+            for k, v in result.nests.metrics.items()
+            if not isinstance(v, (list, dict)) or k in ("utilisation",)
+        }
         summary["nests"]["plates"] = len(result.nests.plates)
     return summary

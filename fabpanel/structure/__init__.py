@@ -19,10 +19,12 @@ def describe(structure: Structure) -> str:
     s = structure.summary
     if not structure.analysed:
         return f"not analysed: {s['reason']}"
-    return (f"{s['mesh']['elements']} S8R, utilisation {s['stress']['utilisation']:.2f}, "
-            f"deflection {s['deflection']['ratio']}, buckling factor "
-            f"{s['buckling']['first']:.2f} (>= {s['buckling']['required']:.3g}): "
-            f"{'ok' if s['ok'] else 'check failed'}")
+    return (
+        f"{s['mesh']['elements']} S8R, utilisation {s['stress']['utilisation']:.2f}, "
+        f"deflection {s['deflection']['ratio']}, buckling factor "
+        f"{s['buckling']['first']:.2f} (>= {s['buckling']['required']:.3g}): "
+        f"{'ok' if s['ok'] else 'check failed'}"
+    )
 
 
 __all__ = [

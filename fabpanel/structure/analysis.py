@@ -21,6 +21,7 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -33,13 +34,14 @@ from .checks import (
     lowest_nodes,
     membrane_compression,
     mode_extent,
+    panel_labels,
     relative_error,
     rib_nodes_of_sides,
     span_of,
     von_mises,
 )
 from .loads import GRAVITY, area_forces, gravity_forces, wind_exposed
-from .mesh import ShellModel, sandwich_model, sandwich_settings
+from .mesh import ShellModel, built_share, sandwich_model, sandwich_settings
 
 log = logging.getLogger(__name__)
 
@@ -88,8 +90,9 @@ class Structure:
 
 
 def not_analysed(reason: str, issue: Issue | None = None, **extra) -> Structure:
-    return Structure(False, {"analysed": False, "reason": reason, **extra},
-                     issues=(issue,) if issue else ())
+    return Structure(
+        False, {"analysed": False, "reason": reason, **extra}, issues=(issue,) if issue else ()
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -122,26 +125,38 @@ def choose_divisions(developed, job) -> int:
     return best
 
 
+def panels_built(model) -> np.ndarray:
+    """(m,) bool: the panels of a :class:`~fabpanel.data.Model` that have parts (a panel the
+    build stage could not build has none)."""
+    with_parts = {part.panel_id for part in model.parts}
+    return np.array([pid in with_parts for pid in model.developed.panel_ids], bool)
+
+
 def shell_of(model, job) -> ShellModel:
-    """The shell model of a built :class:`~fabpanel.data.Model` with its supports."""
+    """The shell model of a built :class:`~fabpanel.data.Model` with its supports. Panels that
+    were not built are meshed too (see :mod:`.mesh`)."""
     developed = model.developed
     n = choose_divisions(developed, job)
-    shell = sandwich_model(developed, sandwich_settings(job, n), model.parts)
+    shell = sandwich_model(
+        developed, sandwich_settings(job, n), model.parts, built=panels_built(model)
+    )
     st = job.structure
     if st.supports == "lowest":
         supports = lowest_nodes(shell.nodes, st.support_band)
-        what = f"[structure] supports = \"lowest\" (band {st.support_band:g} mm)"
+        what = f'[structure] supports = "lowest" (band {st.support_band:g} mm)'
     else:
         layout = developed.layout
-        loops = layout_boundary_loops(np.asarray(layout.quads), np.asarray(layout.side_neighbours),
-                                      np.asarray(layout.vertices))
+        loops = layout_boundary_loops(
+            np.asarray(layout.quads),
+            np.asarray(layout.side_neighbours),
+            np.asarray(layout.vertices),
+        )
         chosen = loops if st.supports == "boundary" else loops[1:]
-        what = f"[structure] supports = \"{st.supports}\""
+        what = f'[structure] supports = "{st.supports}"'
         if not chosen:
             from ..errors import GeometryError
 
-            raise GeometryError(f"{what}: the layout has no openings; use \"lowest\" or "
-                                f"\"boundary\"")
+            raise GeometryError(f'{what}: the layout has no openings; use "lowest" or "boundary"')
         sides = np.concatenate(chosen)
         if job.sandwich.buildup == "sandwich":
             supports = rib_nodes_of_sides(shell, sides)
@@ -170,8 +185,11 @@ def load_cases(shell: ShellModel, job) -> tuple[list[ccx.LoadCase], dict]:
     cases = [ccx.LoadCase("G", gravity=np.array([0.0, 0.0, -GRAVITY]))]
     info = {"G": "self-weight (g = 9.81 m/s2)"}
     if loads.snow > 0:
-        cases.append(ccx.LoadCase("S", forces=area_forces(shell, loads.snow, (0, 0, -1), top,
-                                                          projected=True)))
+        cases.append(
+            ccx.LoadCase(
+                "S", forces=area_forces(shell, loads.snow, (0, 0, -1), top, projected=True)
+            )
+        )
         info["S"] = f"snow {loads.snow * 1e3:g} kN/m2 on the horizontal projection"
     if loads.wind > 0:
         d = np.r_[np.asarray(loads.wind_direction, float), 0.0]
@@ -183,19 +201,23 @@ def load_cases(shell: ShellModel, job) -> tuple[list[ccx.LoadCase], dict]:
         directions = (("W1", 1.0), ("W2", -1.0)) if loads.wind_opposite else (("W", 1.0),)
         for name, sign in directions:
             exposed = wind_exposed(shell, top, sign * d)
-            cases.append(ccx.LoadCase(name, forces=area_forces(shell, loads.wind, sign * d,
-                                                               exposed, projected=True)))
-            info[name] = (f"wind {loads.wind * 1e3:g} kN/m2 blowing along ({sign * d[0]:+.2f}, "
-                          f"{sign * d[1]:+.2f}), projected, on {int(exposed.sum())} exposed "
-                          f"top-sheet elements; combined as pressure (+) and suction (-)")
+            cases.append(
+                ccx.LoadCase(
+                    name, forces=area_forces(shell, loads.wind, sign * d, exposed, projected=True)
+                )
+            )
+            info[name] = (
+                f"wind {loads.wind * 1e3:g} kN/m2 blowing along ({sign * d[0]:+.2f}, "
+                f"{sign * d[1]:+.2f}), projected, on {int(exposed.sum())} exposed "
+                f"top-sheet elements; combined as pressure (+) and suction (-)"
+            )
     return cases, info
 
 
 # --------------------------------------------------------------------------------------------
 # the stage
 # --------------------------------------------------------------------------------------------
-def analyse(model, job, folder: str | Path | None = None, threads: int | None = None
-            ) -> Structure:
+def analyse(model, job, folder: str | Path | None = None, threads: int | None = None) -> Structure:
     """Stage: the structural check of a built :class:`~fabpanel.data.Model` (module docstring).
 
     folder : where the decks and results are kept (created); default a temporary folder.
@@ -212,8 +234,9 @@ def analyse(model, job, folder: str | Path | None = None, threads: int | None = 
         if st.required:
             raise ccx.CcxMissing(reason)
         log.warning("structure not analysed: %s", reason)
-        return not_analysed(reason, Issue("ccx-missing", "structure not analysed: " + reason),
-                            ccx_found=False)
+        return not_analysed(
+            reason, Issue("ccx-missing", "structure not analysed: " + reason), ccx_found=False
+        )
     # the thread count does not follow --jobs: SPOOLES's result may differ in the last digits
     # with the thread count, and a job must give the same output whatever --jobs is
     threads = st.threads or threads or os.cpu_count() or 1
@@ -229,8 +252,11 @@ def analyse(model, job, folder: str | Path | None = None, threads: int | None = 
             raise
         reason = f"{type(err).__name__}: {err}"
         log.error("structure not analysed: %s", reason)
-        return not_analysed(reason, Issue("structure-failed", "structure not analysed: " + str(err),
-                                          severity="error"), ccx_found=True)
+        return not_analysed(
+            reason,
+            Issue("structure-failed", "structure not analysed: " + str(err), severity="error"),
+            ccx_found=True,
+        )
 
 
 def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool) -> Structure:
@@ -252,45 +278,80 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
     disp = [a for _, s, a in sorted(frd.results("DISP"), key=lambda r: r[1])]
     stress = [a for _, s, a in sorted(frd.results("STRESS"), key=lambda r: r[1])]
     if len(disp) != len(cases) or len(stress) != len(cases) or len(dat.forces) != len(cases):
-        raise ccx.SolverError(f"CalculiX wrote {len(disp)} displacement and {len(dat.forces)} "
-                              f"reaction blocks for {len(cases)} load cases")
+        raise ccx.SolverError(
+            f"CalculiX wrote {len(disp)} displacement and {len(dat.forces)} "
+            f"reaction blocks for {len(cases)} load cases"
+        )
     knots = ccx.read_knots(deck)
+    el_panel, el_side = panel_labels(shell)
     junction = np.zeros(len(shell.nodes), bool)
-    junction[shell.quads[shell.side[: len(shell.quads)] >= 0].ravel()] = True
+    junction[shell.quads[el_side[: len(shell.quads)] >= 0].ravel()] = True
     stray = knots[~junction[knots]] if len(knots) else knots
     if len(stray):
-        issues.append(Issue("stray-knots", f"CalculiX made {len(stray)} knots away from the "
-                            f"rib/sheet junctions (flipped or kinked sheet elements stiffen the "
-                            f"model there)", severity="warning"))
+        issues.append(
+            Issue(
+                "stray-knots",
+                f"CalculiX made {len(stray)} knots away from the "
+                f"rib/sheet junctions (flipped or kinked sheet elements stiffen the "
+                f"model there)",
+                severity="warning",
+            )
+        )
     u_el = np.stack([0.5 * (d[bottom][..., :3] + d[top][..., :3]) for d in disp])  # (C,E,8,3)
-    s_bot = np.stack([s[bottom] for s in stress])                                   # (C,E,8,6)
+    s_bot = np.stack([s[bottom] for s in stress])  # (C,E,8,6)
     s_top = np.stack([s[top] for s in stress])
 
     # ---- mass and reactions ----------------------------------------------------------------
+    # a panel not built is in the shell model but has no parts: the check compares the built
+    # panels' share of the model (by element mass, a shared rib half each) with their parts
     parts_mass = float(sum(p.mass for p in model.parts))
     lumped = float(shell.lumped_mass.sum()) if shell.lumped_mass is not None else 0.0
-    fe_mass = dat.mass[0] * 1e3 + lumped
+    built = panels_built(model)
+    element_mass = shell.density * shell.thickness * shell.element_areas()
+    share = float((element_mass * built_share(shell, built)).sum() / element_mass.sum())
+    fe_total = dat.mass[0] * 1e3 + lumped
+    fe_mass = dat.mass[0] * 1e3 * share + lumped
     mass_error = (fe_mass - parts_mass) / parts_mass if parts_mass > 0 else 0.0
+    not_built = [pid for pid, ok in zip(panel_ids, built) if not ok]
     supp = np.zeros(len(shell.nodes), bool)
     supp[shell.supports] = True
     reactions = {}
     for c, case in enumerate(cases):
-        applied = gravity_forces(shell, case.gravity) if case.gravity is not None \
-            else case.forces
+        if case.gravity is not None:
+            applied = gravity_forces(shell, case.gravity)
+        elif case.forces is not None:
+            applied = case.forces
+        else:  # a case without loads (as the deck writes it)
+            applied = np.zeros((len(shell.nodes), 3))
         total = applied.sum(axis=0)
         reaction = dat.forces[c] - applied[supp].sum(axis=0)
         error = relative_error(-reaction, total)
-        reactions[case.name] = {"description": case_info[case.name],
-                                "applied_N": _r(total, 2), "reaction_N": _r(reaction, 2),
-                                "on_support_nodes_N": _r(applied[supp].sum(axis=0), 2),
-                                "error": _sig(error, 2), "ok": bool(error <= REACTION_TOLERANCE)}
+        reactions[case.name] = {
+            "description": case_info[case.name],
+            "applied_N": _r(total, 2),
+            "reaction_N": _r(reaction, 2),
+            "on_support_nodes_N": _r(applied[supp].sum(axis=0), 2),
+            "error": _sig(error, 2),
+            "ok": bool(error <= REACTION_TOLERANCE),
+        }
         if error > REACTION_TOLERANCE:
-            issues.append(Issue("reaction-mismatch", f"load case {case.name}: reactions differ "
-                                f"from the applied load by {error:.3%}", severity="error"))
+            issues.append(
+                Issue(
+                    "reaction-mismatch",
+                    f"load case {case.name}: reactions differ from the applied load by {error:.3%}",
+                    severity="error",
+                )
+            )
     if abs(mass_error) > MASS_TOLERANCE:
-        issues.append(Issue("mass-mismatch", f"shell model mass {fe_mass:.1f} kg differs from "
-                            f"the parts' {parts_mass:.1f} kg by {mass_error:.2%}",
-                            severity="error"))
+        issues.append(
+            Issue(
+                "mass-mismatch",
+                f"shell model mass {fe_mass:.1f} kg"
+                f"{' (built panels)' if not_built else ''} differs from "
+                f"the parts' {parts_mass:.1f} kg by {mass_error:.2%}",
+                severity="error",
+            )
+        )
 
     # ---- combinations ----------------------------------------------------------------------
     combos = combinations(names, loads.gamma_g, loads.gamma_q)
@@ -298,9 +359,14 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
     sls = [c for c in combos if c.kind == "SLS"]
     f_uls = np.stack([c.factors for c in uls])
     f_sls = np.stack([c.factors for c in sls])
-    vm = np.concatenate([von_mises(np.einsum("kc,cesj->kesj", f_uls, s_bot)),
-                         von_mises(np.einsum("kc,cesj->kesj", f_uls, s_top))], axis=2)
-    vm_el = vm.max(axis=2)                                                  # (K, E)
+    vm = np.concatenate(
+        [
+            von_mises(np.einsum("kc,cesj->kesj", f_uls, s_bot)),
+            von_mises(np.einsum("kc,cesj->kesj", f_uls, s_top)),
+        ],
+        axis=2,
+    )
+    vm_el = vm.max(axis=2)  # (K, E)
     fy = shell.material.fy
     disp_sls = np.linalg.norm(np.einsum("kc,ceaj->keaj", f_sls, u_el), axis=-1)  # (K, E, 8)
     k_u, e_u = np.unravel_index(np.argmax(vm_el), vm_el.shape)
@@ -310,45 +376,66 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
     max_disp = float(disp_sls[k_d, e_d, a_d])
     max_vm = float(vm_el[k_u, e_u])
     areas = shell.element_areas()
-    compression = np.stack([membrane_compression(np.einsum("c,cesj->esj", c.factors, s_bot),
-                                                 np.einsum("c,cesj->esj", c.factors, s_top),
-                                                 shell.thickness, areas).sum() for c in uls])
+    compression = np.stack(
+        [
+            membrane_compression(
+                np.einsum("c,cesj->esj", c.factors, s_bot),
+                np.einsum("c,cesj->esj", c.factors, s_top),
+                shell.thickness,
+                areas,
+            ).sum()
+            for c in uls
+        ]
+    )
     governing = uls[int(np.argmax(compression))]
 
     # ---- buckling --------------------------------------------------------------------------
     buckle_case = ccx.combine(cases, list(governing.factors), governing.name)
     modes_asked = st.buckling_modes
-    factors, shapes, brun = _buckle(shell, buckle_case, folder, modes_asked, threads, st,
-                                    executable)
+    factors, shapes, brun = _buckle(
+        shell, buckle_case, folder, modes_asked, threads, st, executable
+    )
     if (factors > 0).sum() < MIN_POSITIVE_MODES and modes_asked < 4 * st.buckling_modes:
         modes_asked *= 2
-        factors, shapes, brun = _buckle(shell, buckle_case, folder, modes_asked, threads, st,
-                                        executable)
+        factors, shapes, brun = _buckle(
+            shell, buckle_case, folder, modes_asked, threads, st, executable
+        )
     positive = np.nonzero(factors > 0)[0]
     positive = positive[np.argsort(factors[positive])]
     required = 1.0 / loads.buckling_knockdown
-    modes = []
+    modes: list[dict[str, Any]] = []
     mode_shape = None
     for rank, j in enumerate(positive):
         shape = shapes[j]
         amp = np.linalg.norm(0.5 * (shape[bottom][..., :3] + shape[top][..., :3]), axis=-1)
-        panels, _ = mode_extent(amp.max(axis=1), shell.panel, len(panel_ids))
-        modes.append({"mode": rank + 1, "factor": _sig(factors[j], 4),
-                      "panels": [panel_ids[p] for p in panels[:20]],
-                      "panel_count": len(panels)})
+        panels, _ = mode_extent(amp.max(axis=1), el_panel, len(panel_ids))
+        modes.append(
+            {
+                "mode": rank + 1,
+                "factor": _sig(factors[j], 4),
+                "panels": [panel_ids[p] for p in panels[:20]],
+                "panel_count": len(panels),
+            }
+        )
         if rank == 0:
             mode_shape = _node_values(shell, 0.5 * (shape[bottom][..., :3] + shape[top][..., :3]))
             mode_shape /= max(np.linalg.norm(mode_shape, axis=1).max(), 1e-300)
     if len(positive) < MIN_POSITIVE_MODES:
-        issues.append(Issue("few-buckling-modes", f"only {len(positive)} positive buckling "
-                            f"factors among {modes_asked} requested"))
+        issues.append(
+            Issue(
+                "few-buckling-modes",
+                f"only {len(positive)} positive buckling factors among {modes_asked} requested",
+            )
+        )
     first = float(factors[positive[0]]) if len(positive) else math.inf
     divisions = int(_divisions(shell, panel_ids))
     local_note = None
     if divisions < LOCAL_BUCKLING_DIVISIONS:
-        local_note = (f"{divisions} element(s) per panel side cannot show the sheets buckling "
-                      f"between their ribs: the factors cover the global modes only; refine "
-                      f"with [structure] element_size (about a quarter of the panel size)")
+        local_note = (
+            f"{divisions} element(s) per panel side cannot show the sheets buckling "
+            f"between their ribs: the factors cover the global modes only; refine "
+            f"with [structure] element_size (about a quarter of the panel size)"
+        )
         issues.append(Issue("coarse-buckling-mesh", local_note))
 
     # ---- per panel -------------------------------------------------------------------------
@@ -356,89 +443,159 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
     disp_el = disp_sls.max(axis=(0, 2))
     per_panel = {}
     for p, pid in enumerate(panel_ids):
-        mine = np.nonzero((shell.panel[:, 0] == p) | (shell.panel[:, 1] == p))[0]
+        mine = np.nonzero((el_panel[:, 0] == p) | (el_panel[:, 1] == p))[0]
         e = mine[np.argmax(util_el[mine])]
-        per_panel[pid] = {"utilisation": round(float(util_el[e]), 4),
-                          "part": _part_of(shell, e, panel_ids, p),
-                          "displacement_mm": round(float(disp_el[mine].max()), 3),
-                          "buckling_modes": [m["mode"] for m in modes[:MIN_POSITIVE_MODES]
-                                             if pid in m["panels"]]}
+        per_panel[pid] = {
+            "utilisation": round(float(util_el[e]), 4),
+            "part": _part_of(shell, e, panel_ids, p),
+            "displacement_mm": round(float(disp_el[mine].max()), 3),
+            "buckling_modes": [m["mode"] for m in modes[:MIN_POSITIVE_MODES] if pid in m["panels"]],
+        }
     mass_ok = abs(mass_error) <= MASS_TOLERANCE
     reactions_ok = all(r["ok"] for r in reactions.values())
     checks = {
-        "mass": mass_ok, "reactions": reactions_ok, "deflection": max_disp <= limit,
-        "stress": max_vm <= fy, "buckling": first >= required,
+        "mass": mass_ok,
+        "reactions": reactions_ok,
+        "deflection": max_disp <= limit,
+        "stress": max_vm <= fy,
+        "buckling": first >= required,
     }
     seconds = time.perf_counter() - started
     files = tuple(sorted(p.name for p in folder.iterdir() if p.is_file())) if keep else ()
     summary = {
         "analysed": True,
         "ccx_found": True,
-        "solver": {"program": "CalculiX", "path": executable,
-                   "version": ccx.ccx_version(executable), "threads": threads,
-                   "elements": "S8R (quadratic shells, reduced integration)"},
+        "solver": {
+            "program": "CalculiX",
+            "path": executable,
+            "version": ccx.ccx_version(executable),
+            "threads": threads,
+            "elements": "S8R (quadratic shells, reduced integration)",
+        },
         # everything that depends on the machine, under "seconds" (as the other stages)
-        "seconds": {"static": round(run.seconds, 2), "buckling": round(brun.seconds, 2),
-                    "total": round(seconds, 2)},
-        "mesh": {"elements": shell.n_elements, "S8R": len(shell.quads),
-                 "S6": len(shell.triangles), "nodes": len(shell.nodes),
-                 "elements_per_side": divisions,
-                 "knots": len(knots), "knots_off_junctions": len(stray),
-                 "groups": {g.name: {"thickness_mm": g.thickness,
-                                     "density_factor": round(g.density_factor, 5),
-                                     "elements": int((shell.group == i).sum())}
-                            for i, g in enumerate(shell.groups)},
-                 "stiffeners": ("mass lumped on the panel corner lines, stiffness not modelled"
-                                if lumped > 0 else "none in the model")},
-        "supports": {"mode": st.supports, "nodes": len(shell.supports),
-                     "fixed": "translations (pinned)"},
-        "mass": {"model_kg": round(fe_mass, 2), "parts_kg": round(parts_mass, 2),
-                 "lumped_stiffeners_kg": round(lumped, 2), "error": _sig(mass_error, 3),
-                 "tolerance": MASS_TOLERANCE, "ok": mass_ok},
+        "seconds": {
+            "static": round(run.seconds, 2),
+            "buckling": round(brun.seconds, 2),
+            "total": round(seconds, 2),
+        },
+        "mesh": {
+            "elements": shell.n_elements,
+            "S8R": len(shell.quads),
+            "S6": len(shell.triangles),
+            "nodes": len(shell.nodes),
+            "elements_per_side": divisions,
+            "knots": len(knots),
+            "knots_off_junctions": len(stray),
+            "groups": {
+                g.name: {
+                    "thickness_mm": g.thickness,
+                    "density_factor": round(g.density_factor, 5),
+                    "elements": int((shell.group == i).sum()),
+                }
+                for i, g in enumerate(shell.groups)
+            },
+            "stiffeners": (
+                "mass lumped on the panel corner lines, stiffness not modelled"
+                if lumped > 0
+                else "none in the model"
+            ),
+        },
+        "supports": {
+            "mode": st.supports,
+            "nodes": len(shell.supports),
+            "fixed": "translations (pinned)",
+        },
+        "mass": {
+            "model_kg": round(fe_mass, 2),
+            "parts_kg": round(parts_mass, 2),
+            "lumped_stiffeners_kg": round(lumped, 2),
+            "error": _sig(mass_error, 3),
+            "tolerance": MASS_TOLERANCE,
+            "ok": mass_ok,
+            **(
+                {
+                    "panels_not_built": not_built,
+                    "not_built_kg": round(fe_total - fe_mass, 2),
+                    "model_total_kg": round(fe_total, 2),
+                    "note": "panels not built are in the shell model (from their developed "
+                    "surface, without stiffeners) and left out of the mass check",
+                }
+                if not_built
+                else {}
+            ),
+        },
         "load_cases": reactions,
         "combinations": {"ULS": [c.name for c in uls], "SLS": [c.name for c in sls]},
-        "deflection": {"max_mm": round(max_disp, 3), "combination": sls[k_d].name,
-                       "panel": panel_ids[shell.panel[e_d, 0]],
-                       "at_mm": _r(shell.nodes[shell.quads[e_d, a_d]], 1),
-                       "span_mm": round(span, 1), "limit_mm": round(limit, 2),
-                       "ratio": f"L/{span / max_disp:.0f}" if max_disp > 0 else "L/inf",
-                       "ok": checks["deflection"]},
-        "stress": {"max_von_mises_MPa": round(max_vm, 2), "fy_MPa": fy,
-                   "utilisation": round(max_vm / fy, 4), "combination": uls[k_u].name,
-                   "panel": panel_ids[shell.panel[e_u, 0]],
-                   "part": _part_of(shell, e_u, panel_ids, shell.panel[e_u, 0]),
-                   "at_mm": _r(shell.nodes[shell.quads[e_u]].mean(axis=0), 1),
-                   "ok": checks["stress"]},
-        "buckling": {"combination": governing.name,
-                     "selected_by": "largest compressive membrane force of the ULS "
-                                    "combinations",
-                     "factors": [m["factor"] for m in modes[:MIN_POSITIVE_MODES]],
-                     "all_factors": [_sig(f, 4) for f in factors],
-                     "required": round(required, 3), "first": _sig(first, 4),
-                     "modes": modes[:max(MIN_POSITIVE_MODES, 10)],
-                     "note": local_note,
-                     "ok": checks["buckling"]},
+        "deflection": {
+            "max_mm": round(max_disp, 3),
+            "combination": sls[k_d].name,
+            "panel": panel_ids[el_panel[e_d, 0]],
+            "at_mm": _r(shell.nodes[shell.quads[e_d, a_d]], 1),
+            "span_mm": round(span, 1),
+            "limit_mm": round(limit, 2),
+            "ratio": f"L/{span / max_disp:.0f}" if max_disp > 0 else "L/inf",
+            "ok": checks["deflection"],
+        },
+        "stress": {
+            "max_von_mises_MPa": round(max_vm, 2),
+            "fy_MPa": fy,
+            "utilisation": round(max_vm / fy, 4),
+            "combination": uls[k_u].name,
+            "panel": panel_ids[el_panel[e_u, 0]],
+            "part": _part_of(shell, int(e_u), panel_ids, int(el_panel[e_u, 0])),
+            "at_mm": _r(shell.nodes[shell.quads[e_u]].mean(axis=0), 1),
+            "ok": checks["stress"],
+        },
+        "buckling": {
+            "combination": governing.name,
+            "selected_by": "largest compressive membrane force of the ULS combinations",
+            "factors": [m["factor"] for m in modes[:MIN_POSITIVE_MODES]],
+            "all_factors": [_sig(f, 4) for f in factors],
+            "required": round(required, 3),
+            "first": _sig(first, 4),
+            "modes": modes[: max(MIN_POSITIVE_MODES, 10)],
+            "note": local_note,
+            "ok": checks["buckling"],
+        },
         "checks": checks,
         "ok": all(checks.values()),
         "panels": per_panel,
         "files": [f"structure/{name}" for name in files],
     }
     displacement = _node_values(shell, np.einsum("c,ceaj->eaj", f_sls[k_d], u_el))
-    metrics = {"peak_memory_mb": max(run.peak_memory_mb, brun.peak_memory_mb),
-               "seconds": seconds, "equations": _equations(run.log)}
-    return Structure(True, summary, shell, displacement, util_el, mode_shape, panel_ids,
-                     files, tuple(issues), metrics)
+    metrics = {
+        "peak_memory_mb": max(run.peak_memory_mb, brun.peak_memory_mb),
+        "seconds": seconds,
+        "equations": _equations(run.log),
+    }
+    return Structure(
+        True,
+        summary,
+        shell,
+        displacement,
+        util_el,
+        mode_shape,
+        panel_ids,
+        files,
+        tuple(issues),
+        metrics,
+    )
 
 
 def _buckle(shell, case, folder, modes, threads, st, executable):
-    deck = ccx.write_deck(shell, folder / "buckle.inp", buckle=case, modes=modes,
-                          title=f"fabpanel buckling under {case.name}")
+    deck = ccx.write_deck(
+        shell,
+        folder / "buckle.inp",
+        buckle=case,
+        modes=modes,
+        title=f"fabpanel buckling under {case.name}",
+    )
     run = ccx.run_ccx(deck, threads, st.timeout, executable)
     dat = ccx.read_dat(run.dat)
     frd = ccx.read_frd(run.frd)
     blocks = frd.results("DISP")
     factors = dat.buckling if len(dat.buckling) else np.array([v for v, _, _ in blocks])
-    shapes = [a for _, _, a in blocks][-len(factors):] if len(factors) else []
+    shapes = [a for _, _, a in blocks][-len(factors) :] if len(factors) else []
     return np.asarray(factors, float), shapes, run
 
 
@@ -463,12 +620,13 @@ def _node_values(shell: ShellModel, per_element_node: np.ndarray) -> np.ndarray:
 
 def _part_of(shell: ShellModel, e: int, panel_ids, p: int) -> str:
     name = shell.groups[shell.group[e]].name
-    own, other = shell.panel[e]
+    el_panel, el_side = panel_labels(shell)
+    own, other = el_panel[e]
     if name == "TOP":
         return f"{panel_ids[own]}-TOP"
     if name == "BOT":
         return f"{panel_ids[own]}-BOT"
-    side = int(shell.side[e])
+    side = int(el_side[e])
     label = f"{panel_ids[own]}-RIB-{side}"
     if other >= 0:
         label += f" + {panel_ids[other]} rib (back to back)"

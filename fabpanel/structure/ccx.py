@@ -26,6 +26,7 @@ import resource
 import shutil
 import subprocess
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -66,8 +67,9 @@ def require_ccx() -> str:
 def ccx_version(executable: str) -> str:
     """The version line ccx prints with ``-v`` ("2.20"), or "" if it says none."""
     try:
-        out = subprocess.run([executable, "-v"], capture_output=True, text=True, timeout=20,
-                             check=False)
+        out = subprocess.run(
+            [executable, "-v"], capture_output=True, text=True, timeout=20, check=False
+        )
     except (OSError, subprocess.TimeoutExpired):
         return ""
     found = re.search(r"[Vv]ersion\s+([\d.]+)", out.stdout + out.stderr)
@@ -92,8 +94,11 @@ class LoadCase:
     forces: np.ndarray | None = None
 
     def scaled(self, factor: float) -> LoadCase:
-        return LoadCase(self.name, None if self.gravity is None else factor * self.gravity,
-                        None if self.forces is None else factor * self.forces)
+        return LoadCase(
+            self.name,
+            None if self.gravity is None else factor * self.gravity,
+            None if self.forces is None else factor * self.forces,
+        )
 
 
 def combine(cases: list[LoadCase], factors: list[float], name: str) -> LoadCase:
@@ -111,7 +116,7 @@ def combine(cases: list[LoadCase], factors: list[float], name: str) -> LoadCase:
 
 def _ids(values: np.ndarray, per_line: int = 16) -> str:
     values = np.asarray(values).ravel() + 1
-    lines = [", ".join(map(str, values[i:i + per_line])) for i in range(0, len(values), per_line)]
+    lines = [", ".join(map(str, values[i : i + per_line])) for i in range(0, len(values), per_line)]
     return "\n".join(lines)
 
 
@@ -124,8 +129,14 @@ def _rows(table: np.ndarray, ids: np.ndarray) -> str:
     return "\n".join(f"{int(row[0])}, " + ", ".join(f"{v:.9g}" for v in row[1:]) for row in body)
 
 
-def write_deck(model: ShellModel, path: Path, cases: list[LoadCase] = (),
-               buckle: LoadCase | None = None, modes: int = 10, title: str = "fabpanel") -> Path:
+def write_deck(
+    model: ShellModel,
+    path: Path,
+    cases: Sequence[LoadCase] = (),
+    buckle: LoadCase | None = None,
+    modes: int = 10,
+    title: str = "fabpanel",
+) -> Path:
     """Write a CalculiX deck: the mesh, sections, supports, one ``*STATIC`` step per case and
     optionally one ``*BUCKLE`` step with ``modes`` factors. Node and element numbers are the
     model's indices + 1. Returns ``path``."""
@@ -133,12 +144,13 @@ def write_deck(model: ShellModel, path: Path, cases: list[LoadCase] = (),
     nq = len(model.quads)
     out: list[str] = [f"** {title}: written by fabpanel (units N, mm, t, s)"]
     out.append("*NODE, NSET=NALL")
-    out.append("\n".join(f"{i + 1}, {x:.9g}, {y:.9g}, {z:.9g}"
-                         for i, (x, y, z) in enumerate(model.nodes)))
+    out.append(
+        "\n".join(f"{i + 1}, {x:.9g}, {y:.9g}, {z:.9g}" for i, (x, y, z) in enumerate(model.nodes))
+    )
     all_sets = []
     for g, group in enumerate(model.groups):
         for conn, etype, offset in ((model.quads, "S8R", 0), (model.triangles, "S6", nq)):
-            members = np.nonzero(model.group[offset:offset + len(conn)] == g)[0]
+            members = np.nonzero(model.group[offset : offset + len(conn)] == g)[0]
             if len(members) == 0:
                 continue
             name = f"E{group.name}{'' if etype == 'S8R' else '_S6'}"
@@ -152,22 +164,32 @@ def write_deck(model: ShellModel, path: Path, cases: list[LoadCase] = (),
         out += ["*NSET, NSET=NSUPP", _ids(supported)]
     for c, (nodes, _) in enumerate(model.constraints):
         out += [f"*NSET, NSET=NFIX{c}", _ids(np.unique(nodes))]
-    lumped = model.lumped_mass is not None and np.any(model.lumped_mass)
+    # the lumped masses when any is non-zero (None otherwise)
+    lumped_mass = model.lumped_mass
+    if lumped_mass is not None and not np.any(lumped_mass):
+        lumped_mass = None
     for g, group in enumerate(model.groups):
         mat = model.material
-        density = mat.density * group.density_factor * 1e-3        # kg/mm3 -> t/mm3
-        out += [f"*MATERIAL, NAME=M{group.name}", "*ELASTIC", f"{mat.E:.9g}, {mat.nu:.9g}",
-                "*DENSITY", f"{density:.9g}"]
+        density = mat.density * group.density_factor * 1e-3  # kg/mm3 -> t/mm3
+        out += [
+            f"*MATERIAL, NAME=M{group.name}",
+            "*ELASTIC",
+            f"{mat.E:.9g}, {mat.nu:.9g}",
+            "*DENSITY",
+            f"{density:.9g}",
+        ]
         sets = [s for s in all_sets if s == f"E{group.name}" or s == f"E{group.name}_S6"]
         for name in sets:
-            out += [f"*SHELL SECTION, ELSET={name}, MATERIAL=M{group.name}",
-                    f"{group.thickness:.9g}"]
+            out += [
+                f"*SHELL SECTION, ELSET={name}, MATERIAL=M{group.name}",
+                f"{group.thickness:.9g}",
+            ]
     out.append("*BOUNDARY")
     if len(supported):
         out.append("NSUPP, 1, 3")
     for c, (_, dofs) in enumerate(model.constraints):
         out += [f"NFIX{c}, {d}, {d}" for d in dofs]
-    lumped_nodes = np.nonzero(model.lumped_mass)[0] if lumped else np.zeros(0, int)
+    lumped_nodes = np.nonzero(lumped_mass)[0] if lumped_mass is not None else np.zeros(0, int)
 
     def loads(case: LoadCase) -> list[str]:
         lines = ["*DLOAD, OP=NEW"]
@@ -176,8 +198,8 @@ def write_deck(model: ShellModel, path: Path, cases: list[LoadCase] = (),
             d = case.gravity / g
             lines.append(f"EALL, GRAV, {g:.9g}, {d[0]:.9g}, {d[1]:.9g}, {d[2]:.9g}")
         forces = np.zeros((len(model.nodes), 3)) if case.forces is None else case.forces.copy()
-        if case.gravity is not None and len(lumped_nodes):
-            forces += model.lumped_mass[:, None] * case.gravity[None] * 1e-3
+        if case.gravity is not None and lumped_mass is not None and len(lumped_nodes):
+            forces += lumped_mass[:, None] * case.gravity[None] * 1e-3
         lines.append("*CLOAD, OP=NEW")
         node, dof = np.nonzero(np.abs(forces) > 0)
         lines += [f"{i + 1}, {d + 1}, {forces[i, d]:.12g}" for i, d in zip(node, dof)]
@@ -216,8 +238,9 @@ class CcxRun:
     threads: int
 
 
-def run_ccx(deck: Path, threads: int = 1, timeout: float | None = None,
-            executable: str | None = None) -> CcxRun:
+def run_ccx(
+    deck: Path, threads: int = 1, timeout: float | None = None, executable: str | None = None
+) -> CcxRun:
     """Run ccx on ``deck`` in its folder. Raises :class:`CcxMissing` without ccx and
     :class:`~fabpanel.errors.SolverError` (with the first error line of the log) when the run
     fails."""
@@ -226,19 +249,33 @@ def run_ccx(deck: Path, threads: int = 1, timeout: float | None = None,
     stem = deck.with_suffix("")
     env = dict(os.environ)
     threads = max(1, int(threads))
-    for key in ("OMP_NUM_THREADS", "CCX_NPROC_STIFFNESS", "CCX_NPROC_EQUATION_SOLVER",
-                "CCX_NPROC_RESULTS", "NUMBER_OF_CPUS"):
+    for key in (
+        "OMP_NUM_THREADS",
+        "CCX_NPROC_STIFFNESS",
+        "CCX_NPROC_EQUATION_SOLVER",
+        "CCX_NPROC_RESULTS",
+        "NUMBER_OF_CPUS",
+    ):
         env[key] = str(threads)
     log_path = stem.parent / f"{stem.name}.log"
     started = time.perf_counter()
     try:
         with log_path.open("w") as handle:
-            proc = subprocess.run([executable, "-i", stem.name], cwd=stem.parent, env=env,
-                                  stdout=handle, stderr=subprocess.STDOUT, timeout=timeout,
-                                  check=False, preexec_fn=child_preexec)
+            proc = subprocess.run(
+                [executable, "-i", stem.name],
+                cwd=stem.parent,
+                env=env,
+                stdout=handle,
+                stderr=subprocess.STDOUT,
+                timeout=timeout,
+                check=False,
+                preexec_fn=child_preexec,
+            )
     except subprocess.TimeoutExpired as err:
-        raise SolverError(f"CalculiX did not finish {deck.name} within {timeout:g} s; use a "
-                          f"coarser [structure] element_size or a longer timeout") from err
+        raise SolverError(
+            f"CalculiX did not finish {deck.name} within {timeout:g} s; use a "
+            f"coarser [structure] element_size or a longer timeout"
+        ) from err
     seconds = time.perf_counter() - started
     peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
     text = log_path.read_text(errors="replace")
@@ -258,8 +295,8 @@ def run_ccx(deck: Path, threads: int = 1, timeout: float | None = None,
 class DatResults:
     """Totals read from a ``.dat`` file, in step order."""
 
-    forces: list[np.ndarray] = field(default_factory=list)     # (3,) per static step, N
-    mass: list[float] = field(default_factory=list)            # total mass per print, t
+    forces: list[np.ndarray] = field(default_factory=list)  # (3,) per static step, N
+    mass: list[float] = field(default_factory=list)  # total mass per print, t
     buckling: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
@@ -270,11 +307,15 @@ def read_dat(path: Path) -> DatResults:
     """Reaction totals (``total force``), masses (``total mass``) and buckling factors."""
     text = Path(path).read_text(errors="replace")
     result = DatResults()
-    for match in re.finditer(r"total force \(fx,fy,fz\) for set \S+ and time\s+\S+\s*\n\s*\n?"
-                             rf"\s*({_FLOAT})\s+({_FLOAT})\s+({_FLOAT})", text):
+    for match in re.finditer(
+        r"total force \(fx,fy,fz\) for set \S+ and time\s+\S+\s*\n\s*\n?"
+        rf"\s*({_FLOAT})\s+({_FLOAT})\s+({_FLOAT})",
+        text,
+    ):
         result.forces.append(np.array([float(match.group(i)) for i in (1, 2, 3)]))
-    for match in re.finditer(rf"total mass for set \S+ and time\s+\S+\s*\n\s*\n?\s*({_FLOAT})",
-                             text):
+    for match in re.finditer(
+        rf"total mass for set \S+ and time\s+\S+\s*\n\s*\n?\s*({_FLOAT})", text
+    ):
         result.mass.append(float(match.group(1)))
     block = text.split("B U C K L I N G   F A C T O R   O U T P U T")
     if len(block) > 1:
@@ -319,7 +360,7 @@ def _fixed(lines: list[bytes], start: int, width: int, count: int, kind=float) -
     size = max(len(line) for line in lines)
     blob = b"".join(line.ljust(size) for line in lines)
     chars = np.frombuffer(blob, dtype=np.uint8).reshape(len(lines), size)
-    cols = chars[:, start:start + width * count].copy()
+    cols = chars[:, start : start + width * count].copy()
     text = cols.view(f"S{width}").reshape(len(lines), count)
     return text.astype(kind)
 
@@ -328,8 +369,11 @@ def read_frd(path: Path) -> FrdResults:
     """Read the node, element and result blocks of an ASCII ``.frd`` (ccx 2.20 long format:
     ids as I10, values as E12.5)."""
     lines = Path(path).read_bytes().splitlines()
-    node_ids = nodes = element_ids = connectivity = None
-    blocks = []
+    node_ids: np.ndarray | None = None
+    nodes: np.ndarray | None = None
+    element_ids: np.ndarray | None = None
+    connectivity: np.ndarray | None = None
+    blocks: list[tuple[str, float, int, np.ndarray]] = []
     i, n = 0, len(lines)
     while i < n:
         line = lines[i]
@@ -338,7 +382,7 @@ def read_frd(path: Path) -> FrdResults:
             j = i + 1
             while not lines[j].startswith(b" -3"):
                 j += 1
-            body = lines[i + 1:j]
+            body = lines[i + 1 : j]
             node_ids = _fixed(body, 3, 10, 1, np.int64)[:, 0]
             nodes = _fixed(body, 13, 12, 3)
             i = j + 1
@@ -346,12 +390,12 @@ def read_frd(path: Path) -> FrdResults:
             j = i + 1
             while not lines[j].startswith(b" -3"):
                 j += 1
-            body = lines[i + 1:j]
+            body = lines[i + 1 : j]
             starts = [k for k, text in enumerate(body) if text.startswith(b" -1")]
             heads = [body[k] for k in starts]
             element_ids = _fixed(heads, 3, 10, 1, np.int64)[:, 0]
             per = np.diff(starts + [len(body)])
-            rows = [b"".join(body[k + 1:k + c]).replace(b" -2", b"") for k, c in zip(starts, per)]
+            rows = [b"".join(body[k + 1 : k + c]).replace(b" -2", b"") for k, c in zip(starts, per)]
             width = max(len(r) for r in rows) // 10
             rows = [r.ljust(10 * width) for r in rows]
             chars = np.frombuffer(b"".join(rows), np.uint8).reshape(len(rows), 10 * width)
@@ -359,6 +403,10 @@ def read_frd(path: Path) -> FrdResults:
             connectivity = np.where(text == b" " * 10, b"-1", text).astype(np.int64)
             i = j + 1
         elif line.startswith(b"  100CL"):
+            if node_ids is None:
+                raise SolverError(
+                    f"{path}: a result block comes before the nodes; is the .frd complete?"
+                )
             value = float(line[12:24])
             step = int(line[58:63]) if len(line) >= 63 and line[58:63].strip() else 0
             name = lines[i + 1][5:13].strip().decode()
@@ -381,7 +429,7 @@ def read_frd(path: Path) -> FrdResults:
             i = j + 1
         else:
             i += 1
-    if node_ids is None or connectivity is None:
+    if node_ids is None or nodes is None or element_ids is None or connectivity is None:
         raise SolverError(f"{path} holds no mesh; did CalculiX finish?")
     return FrdResults(node_ids, nodes, element_ids, connectivity, blocks)
 

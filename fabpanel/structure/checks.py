@@ -30,8 +30,9 @@ def lowest_nodes(nodes: np.ndarray, band: float) -> np.ndarray:
     return np.nonzero(z <= z.min() + band)[0]
 
 
-def layout_boundary_loops(quads: np.ndarray, neighbours: np.ndarray, vertices: np.ndarray
-                          ) -> list[np.ndarray]:
+def layout_boundary_loops(
+    quads: np.ndarray, neighbours: np.ndarray, vertices: np.ndarray
+) -> list[np.ndarray]:
     """Boundary loops of a quad layout as arrays of (panel, side) pairs, the loop with the
     largest area projected on the best-fitting plane first (the outer boundary)."""
     boundary = np.argwhere(neighbours < 0)
@@ -54,16 +55,29 @@ def layout_boundary_loops(quads: np.ndarray, neighbours: np.ndarray, vertices: n
 
     def area(loop):
         pts = (vertices[quads[loop[:, 0], loop[:, 1]]] - centre) @ vt[:2].T
-        return abs(0.5 * np.sum(pts[:, 0] * np.roll(pts[:, 1], -1)
-                                - np.roll(pts[:, 0], -1) * pts[:, 1]))
+        return abs(
+            0.5 * np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1])
+        )
 
     return sorted(loops, key=area, reverse=True)
+
+
+def panel_labels(shell: ShellModel) -> tuple[np.ndarray, np.ndarray]:
+    """``(panel, side)`` of a shell model made from panels (:func:`~.mesh.sandwich_model`);
+    a :class:`ValueError` for one made without them (the validation patches)."""
+    if shell.panel is None or shell.side is None:
+        raise ValueError(
+            "the shell model has no panel labels (panel / side); it was not made "
+            "from developed panels"
+        )
+    return shell.panel, shell.side
 
 
 def rib_nodes_of_sides(shell: ShellModel, sides: np.ndarray) -> np.ndarray:
     """(s,) int: nodes of the rib elements on the given (panel, side) pairs."""
     key = set(map(tuple, np.asarray(sides).tolist()))
-    mask = np.array([(p, s) in key for p, s in zip(shell.panel[:, 0], shell.side)])
+    panel, side = panel_labels(shell)
+    mask = np.array([(p, s) in key for p, s in zip(panel[:, 0], side)])
     return np.unique(shell.quads[mask[: len(shell.quads)]])
 
 
@@ -71,15 +85,19 @@ def check_supports(nodes: np.ndarray, supports: np.ndarray, what: str) -> None:
     """Raise :class:`GeometryError` for fewer than three or collinear support nodes (the shell
     would turn about them; CalculiX would stop on a singular matrix)."""
     if len(supports) < 3:
-        raise GeometryError(f"{what} selects {len(supports)} node(s); pinned supports need at "
-                            f"least three nodes not in a line: raise [structure] support_band "
-                            f"or choose another [structure] supports")
+        raise GeometryError(
+            f"{what} selects {len(supports)} node(s); pinned supports need at "
+            f"least three nodes not in a line: raise [structure] support_band "
+            f"or choose another [structure] supports"
+        )
     pts = nodes[supports] - nodes[supports].mean(axis=0)
     sv = np.linalg.svd(pts, compute_uv=False)
     if sv[1] < 1e-6 * max(sv[0], 1e-9):
-        raise GeometryError(f"{what} selects nodes on one line; the shell could turn about it: "
-                            f"raise [structure] support_band or choose another [structure] "
-                            f"supports")
+        raise GeometryError(
+            f"{what} selects nodes on one line; the shell could turn about it: "
+            f"raise [structure] support_band or choose another [structure] "
+            f"supports"
+        )
 
 
 def span_of(nodes: np.ndarray, supports: np.ndarray) -> float:
@@ -124,8 +142,11 @@ def combinations(cases: list[str], gamma_g: float, gamma_q: float) -> list[Combi
             label = f"{gg:g}G" if gg != 1 else "G"
             for case, sign in terms:
                 factors[names.index(case)] = sign * gq
-                label += f"{'+' if sign > 0 else '-'}{gq:g}{case}" if gq != 1 else \
-                    f"{'+' if sign > 0 else '-'}{case}"
+                label += (
+                    f"{'+' if sign > 0 else '-'}{gq:g}{case}"
+                    if gq != 1
+                    else f"{'+' if sign > 0 else '-'}{case}"
+                )
             out.append(Combination(label, kind, factors))
     return out
 
@@ -136,19 +157,22 @@ def combinations(cases: list[str], gamma_g: float, gamma_q: float) -> list[Combi
 def von_mises(stress: np.ndarray) -> np.ndarray:
     """Von Mises stress of ``(..., 6)`` components in .frd order (xx, yy, zz, xy, yz, zx)."""
     sxx, syy, szz, sxy, syz, szx = np.moveaxis(stress, -1, 0)
-    return np.sqrt(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2)
-                   + 3.0 * (sxy ** 2 + syz ** 2 + szx ** 2))
+    return np.sqrt(
+        0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2)
+        + 3.0 * (sxy**2 + syz**2 + szx**2)
+    )
 
 
-def membrane_compression(stress_bottom: np.ndarray, stress_top: np.ndarray,
-                         thickness: np.ndarray, areas: np.ndarray) -> np.ndarray:
+def membrane_compression(
+    stress_bottom: np.ndarray, stress_top: np.ndarray, thickness: np.ndarray, areas: np.ndarray
+) -> np.ndarray:
     """Compressive membrane force of every element: area x thickness x the most compressive
     principal stress of the mean of the surface stresses (0 in tension), N mm. Summed over
     the model it ranks combinations for the buckling analysis.
 
     stress_bottom, stress_top : (..., E, 8, 6); thickness, areas : (E,).
     """
-    mean = 0.5 * (stress_bottom + stress_top).mean(axis=-2)        # (..., E, 6)
+    mean = 0.5 * (stress_bottom + stress_top).mean(axis=-2)  # (..., E, 6)
     s = np.stack([mean[..., [0, 3, 5]], mean[..., [3, 1, 4]], mean[..., [5, 4, 2]]], axis=-2)
     smallest = np.linalg.eigvalsh(s)[..., 0]
     return np.maximum(0.0, -smallest) * thickness * areas
@@ -161,8 +185,9 @@ def relative_error(found: np.ndarray, expected: np.ndarray) -> float:
     return diff / scale if scale > 0 else diff
 
 
-def mode_extent(amplitude: np.ndarray, panel: np.ndarray, n_panels: int,
-                threshold: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+def mode_extent(
+    amplitude: np.ndarray, panel: np.ndarray, n_panels: int, threshold: float = 0.5
+) -> tuple[np.ndarray, np.ndarray]:
     """Panels a buckling mode involves: ``(panels, share)`` with each panel's largest modal
     amplitude relative to the mode's largest, for panels above ``threshold``, largest first.
 

@@ -32,12 +32,33 @@ def _serendipity(a: np.ndarray, b: np.ndarray):
     da_c = 0.25 * ca * (1 + cb * B) * (2 * ca * A + cb * B)
     db_c = 0.25 * cb * (1 + ca * A) * (ca * A + 2 * cb * B)
     # mid-sides: (0,-1), (1,0), (0,1), (-1,0)
-    n_m = np.stack([0.5 * (1 - A[:, 0] ** 2) * (1 - B[:, 0]), 0.5 * (1 + A[:, 0]) * (1 - B[:, 0] ** 2),
-                    0.5 * (1 - A[:, 0] ** 2) * (1 + B[:, 0]), 0.5 * (1 - A[:, 0]) * (1 - B[:, 0] ** 2)], 1)
-    da_m = np.stack([-A[:, 0] * (1 - B[:, 0]), 0.5 * (1 - B[:, 0] ** 2), -A[:, 0] * (1 + B[:, 0]),
-                     -0.5 * (1 - B[:, 0] ** 2)], 1)
-    db_m = np.stack([-0.5 * (1 - A[:, 0] ** 2), -B[:, 0] * (1 + A[:, 0]), 0.5 * (1 - A[:, 0] ** 2),
-                     -B[:, 0] * (1 - A[:, 0])], 1)
+    n_m = np.stack(
+        [
+            0.5 * (1 - A[:, 0] ** 2) * (1 - B[:, 0]),
+            0.5 * (1 + A[:, 0]) * (1 - B[:, 0] ** 2),
+            0.5 * (1 - A[:, 0] ** 2) * (1 + B[:, 0]),
+            0.5 * (1 - A[:, 0]) * (1 - B[:, 0] ** 2),
+        ],
+        1,
+    )
+    da_m = np.stack(
+        [
+            -A[:, 0] * (1 - B[:, 0]),
+            0.5 * (1 - B[:, 0] ** 2),
+            -A[:, 0] * (1 + B[:, 0]),
+            -0.5 * (1 - B[:, 0] ** 2),
+        ],
+        1,
+    )
+    db_m = np.stack(
+        [
+            -0.5 * (1 - A[:, 0] ** 2),
+            -B[:, 0] * (1 + A[:, 0]),
+            0.5 * (1 - A[:, 0] ** 2),
+            -B[:, 0] * (1 - A[:, 0]),
+        ],
+        1,
+    )
     return np.c_[n_c, n_m], np.c_[da_c, da_m], np.c_[db_c, db_m]
 
 
@@ -56,8 +77,9 @@ def _tri_rule():
     s = np.array([1 / 3, b1, a1, b1, b2, a2, b2])
     w = np.r_[0.225, [0.132394152788506] * 3, [0.125939180544827] * 3] / 2
     t = 1 - r - s
-    n = np.stack([t * (2 * t - 1), r * (2 * r - 1), s * (2 * s - 1), 4 * t * r, 4 * r * s,
-                  4 * s * t], 1)
+    n = np.stack(
+        [t * (2 * t - 1), r * (2 * r - 1), s * (2 * s - 1), 4 * t * r, 4 * r * s, 4 * s * t], 1
+    )
     dr = np.stack([1 - 4 * t, 4 * r - 1, 0 * r, 4 * (t - r), 4 * s, -4 * s], 1)
     ds = np.stack([1 - 4 * t, 0 * r, 4 * s - 1, -4 * r, 4 * r, 4 * (t - s)], 1)
     return n, dr, ds, w
@@ -94,8 +116,13 @@ def element_integrals(model: ShellModel) -> tuple[np.ndarray, np.ndarray]:
     return normals, areas
 
 
-def area_forces(model: ShellModel, pressure: float | np.ndarray, direction,
-                elements: np.ndarray | None = None, projected: bool = False) -> np.ndarray:
+def area_forces(
+    model: ShellModel,
+    pressure: float | np.ndarray,
+    direction,
+    elements: np.ndarray | None = None,
+    projected: bool = False,
+) -> np.ndarray:
     """(n, 3) float: consistent nodal forces of an area load, N.
 
     pressure : N/mm2 (1 kN/m2 = 1e-3), scalar or (E,) per element.
@@ -117,7 +144,7 @@ def area_forces(model: ShellModel, pressure: float | np.ndarray, direction,
         weight = area * (pressure[sl] * mask[sl])[:, None]
         if projected:
             weight = weight * np.maximum(0.0, -normal @ direction)
-        nodal = weight @ shape                                  # (E, nn)
+        nodal = weight @ shape  # (E, nn)
         np.add.at(forces, conn.ravel(), nodal.ravel()[:, None] * direction[None])
     return forces
 
@@ -143,11 +170,11 @@ def edge_forces(nodes: np.ndarray, chain: np.ndarray, traction) -> np.ndarray:
     seg = np.stack([chain[0:-1:2], chain[1::2], chain[2::2]], axis=1)  # (k, 3)
     g = np.sqrt(0.6)
     xi, w = np.array([-g, 0.0, g]), np.array([5, 8, 5]) / 9
-    shape = np.stack([xi * (xi - 1) / 2, 1 - xi ** 2, xi * (xi + 1) / 2], 1)   # (3 pts, 3 nodes)
+    shape = np.stack([xi * (xi - 1) / 2, 1 - xi**2, xi * (xi + 1) / 2], 1)  # (3 pts, 3 nodes)
     dshape = np.stack([xi - 0.5, -2 * xi, xi + 0.5], 1)
-    x = nodes[seg]                                                      # (k, 3, 3)
+    x = nodes[seg]  # (k, 3, 3)
     jac = np.linalg.norm(np.einsum("gn,knc->kgc", dshape, x), axis=-1)  # (k, g)
-    nodal = (jac * w) @ shape                                           # (k, 3 nodes)
+    nodal = (jac * w) @ shape  # (k, 3 nodes)
     forces = np.zeros((len(nodes), 3))
     np.add.at(forces, seg.ravel(), nodal.ravel()[:, None] * traction[None])
     return forces
@@ -172,19 +199,33 @@ def wind_exposed(model: ShellModel, elements: np.ndarray, direction) -> np.ndarr
     quad_ids = np.nonzero(elements[:nq])[0]
     tri_ids = np.nonzero(elements[nq:])[0]
     q, t = model.quads[quad_ids], model.triangles[tri_ids]
-    faces = [q[:, [0, 4, 7]], q[:, [4, 1, 5]], q[:, [5, 2, 6]], q[:, [6, 3, 7]], q[:, [4, 5, 7]],
-             q[:, [5, 6, 7]], t[:, [0, 3, 5]], t[:, [3, 1, 4]], t[:, [4, 2, 5]], t[:, [3, 4, 5]]]
+    face_blocks = [
+        q[:, [0, 4, 7]],
+        q[:, [4, 1, 5]],
+        q[:, [5, 2, 6]],
+        q[:, [6, 3, 7]],
+        q[:, [4, 5, 7]],
+        q[:, [5, 6, 7]],
+        t[:, [0, 3, 5]],
+        t[:, [3, 1, 4]],
+        t[:, [4, 2, 5]],
+        t[:, [3, 4, 5]],
+    ]
     owner = np.concatenate([np.tile(quad_ids, 6), np.tile(tri_ids + nq, 4)])
-    faces = np.concatenate(faces)
+    faces = np.concatenate(face_blocks)
     # frame: (u, v) across the wind, w along it
     helper = np.eye(3)[np.argmin(np.abs(direction))]
     u = np.cross(direction, helper)
     u /= np.linalg.norm(u)
     v = np.cross(direction, u)
     frame = np.stack([u, v, direction], 1)
-    corners = model.nodes[faces] @ frame                            # (T, 3, 3)
-    centres = np.concatenate([model.nodes[model.quads].mean(axis=1),
-                              model.nodes[model.triangles].mean(axis=1)]) @ frame
+    corners = model.nodes[faces] @ frame  # (T, 3, 3)
+    centres = (
+        np.concatenate(
+            [model.nodes[model.quads].mean(axis=1), model.nodes[model.triangles].mean(axis=1)]
+        )
+        @ frame
+    )
     candidates = np.nonzero(facing)[0]
     exposed = np.zeros(model.n_elements, bool)
     if len(candidates) == 0 or len(faces) == 0:

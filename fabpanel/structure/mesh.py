@@ -28,6 +28,9 @@ What the shell model simplifies, and how the mass is kept right (checked against
   the nodes of a structured panel mesh (meshing them would need triangles and many more
   elements). Their mass is lumped on the panel's corner line (1/6, 2/3, 1/6 over its three
   nodes) and their stiffness is left out, which is on the safe side for stresses and buckling.
+- a panel the build stage could not build (no parts) is meshed all the same: it is part of the
+  design, and leaving a hole in the shell would change every load path. Its sheets and ribs get
+  the hole allowance of the built panels (holes per area), it has no stiffener mass.
 """
 
 from __future__ import annotations
@@ -129,8 +132,7 @@ class ShellModel:
     @property
     def density(self) -> np.ndarray:
         """(e + f,) float: effective density per element, kg/mm3."""
-        return self.material.density * np.array([g.density_factor for g in self.groups])[
-            self.group]
+        return self.material.density * np.array([g.density_factor for g in self.groups])[self.group]
 
     def element_areas(self) -> np.ndarray:
         """(e + f,) float: mid-surface area per element, mm2 (Gauss quadrature)."""
@@ -150,16 +152,18 @@ def grid_quads(rows: int, cols: int) -> np.ndarray:
     ``i * cols + j``. Element corners run ``(i, j) -> (i+2, j) -> (i+2, j+2) -> (i, j+2)``, so the
     normal is ``d/di x d/dj``; the centre node of every 3 x 3 block is not used."""
     if rows < 3 or cols < 3 or rows % 2 == 0 or cols % 2 == 0:
-        raise InputError(f"an S8R node grid needs an odd number (>= 3) of rows and columns, got "
-                         f"{rows} x {cols}")
+        raise InputError(
+            f"an S8R node grid needs an odd number (>= 3) of rows and columns, got {rows} x {cols}"
+        )
     i, j = np.meshgrid(np.arange(0, rows - 1, 2), np.arange(0, cols - 1, 2), indexing="ij")
     i, j = i.ravel()[:, None], j.ravel()[:, None]
     offsets = np.array(_QUAD_CORNERS + _QUAD_MIDS)
     return (i + offsets[:, 0]) * cols + (j + offsets[:, 1])
 
 
-def merge_nodes(nodes: np.ndarray, tolerance: float = MERGE_TOLERANCE
-                ) -> tuple[np.ndarray, np.ndarray]:
+def merge_nodes(
+    nodes: np.ndarray, tolerance: float = MERGE_TOLERANCE
+) -> tuple[np.ndarray, np.ndarray]:
     """Merge coincident nodes. Returns ``(unique (u, 3), index (n,))`` with
     ``unique[index] ~ nodes``; the first node of every cluster is kept."""
     pairs = cKDTree(nodes).query_pairs(tolerance, output_type="ndarray")
@@ -168,7 +172,7 @@ def merge_nodes(nodes: np.ndarray, tolerance: float = MERGE_TOLERANCE
     _, label = connected_components(graph, directed=False)
     first = np.full(label.max() + 1, n)
     np.minimum.at(first, label, np.arange(n))
-    order = np.argsort(first)                       # clusters numbered by their first node
+    order = np.argsort(first)  # clusters numbered by their first node
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     return nodes[first[order]], rank[label]
@@ -186,8 +190,9 @@ def compact(nodes: np.ndarray, *connectivity: np.ndarray, tolerance: float = MER
     return (unique[used], *(old_to_new[c] for c in connectivity), old_to_new)
 
 
-def patch_model(points: np.ndarray, thickness: float, material: Material,
-                tolerance: float = MERGE_TOLERANCE) -> tuple[ShellModel, np.ndarray]:
+def patch_model(
+    points: np.ndarray, thickness: float, material: Material, tolerance: float = MERGE_TOLERANCE
+) -> tuple[ShellModel, np.ndarray]:
     """A shell model of one structured S8R patch.
 
     points : (rows, cols, 3) float, rows and cols odd: the node grid (mid-surface, mm); node
@@ -199,9 +204,14 @@ def patch_model(points: np.ndarray, thickness: float, material: Material,
     rows, cols = points.shape[:2]
     quads = grid_quads(rows, cols)
     nodes, quads, index = compact(points.reshape(-1, 3), quads, tolerance=tolerance)
-    model = ShellModel(nodes=nodes, quads=quads, triangles=np.zeros((0, 6), int),
-                       group=np.zeros(len(quads), int),
-                       groups=(ShellGroup("SHELL", float(thickness)),), material=material)
+    model = ShellModel(
+        nodes=nodes,
+        quads=quads,
+        triangles=np.zeros((0, 6), int),
+        group=np.zeros(len(quads), int),
+        groups=(ShellGroup("SHELL", float(thickness)),),
+        material=material,
+    )
     return model, index.reshape(rows, cols)
 
 
@@ -250,21 +260,28 @@ def sandwich_settings(job, divisions: int) -> SandwichSettings:
 
     sw, mat = job.sandwich, job.material
     return SandwichSettings(
-        offsets=buildup_offsets(job), t_top=float(sw.sheet_thickness),
-        t_bot=float(sw.bottom_thickness), t_rib=float(sw.rib_thickness),
-        rib_height=float(sw.rib_height), buildup=sw.buildup,
-        material=Material(mat.name, float(mat.E), float(mat.nu), float(mat.density),
-                          float(mat.fy)),
-        divisions=int(divisions))
+        offsets=buildup_offsets(job),
+        t_top=float(sw.sheet_thickness),
+        t_bot=float(sw.bottom_thickness),
+        t_rib=float(sw.rib_thickness),
+        rib_height=float(sw.rib_height),
+        buildup=sw.buildup,
+        material=Material(mat.name, float(mat.E), float(mat.nu), float(mat.density), float(mat.fy)),
+        divisions=int(divisions),
+    )
 
 
-def sandwich_model(developed, settings: SandwichSettings, parts=()) -> ShellModel:
+def sandwich_model(
+    developed, settings: SandwichSettings, parts=(), built: np.ndarray | None = None
+) -> ShellModel:
     """The shell model of all panels (see the module docstring).
 
     developed : :class:`~fabpanel.data.DevelopedPanels` (samples, normals, neighbours, planes).
     settings : :func:`sandwich_settings`.
     parts : the built :class:`~fabpanel.data.Part` records; only their holes and the stiffeners'
         masses are used (the shell geometry comes from ``developed``).
+    built : (m,) bool, the panels ``parts`` come from (default all): the holes of ``parts`` are
+        spread over the built panels' area and, at the same rate, over the others.
 
     Groups: ``TOP``, ``BOT`` (sheets), ``RIB`` (boundary, one rib thickness), ``RIB2`` (shared,
     two). Element normals: sheets outward; ribs into the lower-numbered panel.
@@ -285,34 +302,45 @@ def sandwich_model(developed, settings: SandwichSettings, parts=()) -> ShellMode
     if sandwich:
         bottom = grid + (off["bottom_upper"] - settings.t_bot / 2) * nrm
         sheets.append(bottom)
-    sides = side_indices(q)                                          # (4, q)
+    sides = side_indices(q)  # (4, q)
     per_panel = q * q * len(sheets) + (4 * (n + 1) if sandwich else 0)
     base = np.arange(m)[:, None] * per_panel
     coords = [s.reshape(m, q * q, 3) for s in sheets]
-    template = grid_quads(q, q)                                      # (n*n, 8) local
+    template = grid_quads(q, q)  # (n*n, 8) local
     elements, groups_of, panels_of, side_of = [], [], [], []
     for sheet in range(len(sheets)):
-        conn = base[:, :, None] + sheet * q * q + template[None]     # (m, n*n, 8)
+        conn = base[:, :, None] + sheet * q * q + template[None]  # (m, n*n, 8)
         elements.append(conn.reshape(-1, 8))
         groups_of.append(np.full(m * n * n, sheet))
         panels_of.append(np.repeat(np.arange(m), n * n))
         side_of.append(np.full(m * n * n, -1))
     if sandwich:
-        t_nodes = top.reshape(m, q * q, 3)[:, sides]                 # (m, 4, q, 3)
+        t_nodes = top.reshape(m, q * q, 3)[:, sides]  # (m, 4, q, 3)
         b_nodes = bottom.reshape(m, q * q, 3)[:, sides]
-        mids = 0.5 * (t_nodes[:, :, ::2] + b_nodes[:, :, ::2])       # (m, 4, n+1, 3)
+        mids = 0.5 * (t_nodes[:, :, ::2] + b_nodes[:, :, ::2])  # (m, 4, n+1, 3)
         coords.append(mids.reshape(m, -1, 3))
         neighbours = np.asarray(developed.layout.side_neighbours)
         own = (neighbours < 0) | (np.arange(m)[:, None] < neighbours)
         p_idx, s_idx = np.nonzero(own)
         a = np.arange(n)
-        t_id = base[p_idx] + sides[s_idx]                   # (r, q) top sheet nodes
+        t_id = base[p_idx] + sides[s_idx]  # (r, q) top sheet nodes
         b_id = t_id + q * q
-        m_id = (base[p_idx] + 2 * q * q + s_idx[:, None] * (n + 1)
-                + np.arange(n + 1)[None])                            # (r, n+1)
-        rib = np.stack([t_id[:, 2 * a], t_id[:, 2 * a + 2], b_id[:, 2 * a + 2], b_id[:, 2 * a],
-                        t_id[:, 2 * a + 1], m_id[:, a + 1], b_id[:, 2 * a + 1], m_id[:, a]],
-                       axis=-1)                                      # (r, n, 8)
+        m_id = (
+            base[p_idx] + 2 * q * q + s_idx[:, None] * (n + 1) + np.arange(n + 1)[None]
+        )  # (r, n+1)
+        rib = np.stack(
+            [
+                t_id[:, 2 * a],
+                t_id[:, 2 * a + 2],
+                b_id[:, 2 * a + 2],
+                b_id[:, 2 * a],
+                t_id[:, 2 * a + 1],
+                m_id[:, a + 1],
+                b_id[:, 2 * a + 1],
+                m_id[:, a],
+            ],
+            axis=-1,
+        )  # (r, n, 8)
         shared = neighbours[p_idx, s_idx] >= 0
         elements.append(rib.reshape(-1, 8))
         groups_of.append(np.repeat(np.where(shared, 3, 2), n))
@@ -322,18 +350,52 @@ def sandwich_model(developed, settings: SandwichSettings, parts=()) -> ShellMode
     all_coords = np.concatenate(coords, axis=1).reshape(-1, 3)
     quads = np.concatenate(elements)
     group = np.concatenate(groups_of)
-    panel = np.stack([np.concatenate(panels_of),
-                      np.concatenate([np.full(len(g), -1) for g in groups_of[:-1]] + [other])
-                      if sandwich else np.full(len(group), -1)], axis=1)
+    panel = np.stack(
+        [
+            np.concatenate(panels_of),
+            np.concatenate([np.full(len(g), -1) for g in groups_of[:-1]] + [other])
+            if sandwich
+            else np.full(len(group), -1),
+        ],
+        axis=1,
+    )
     side = np.concatenate(side_of)
     nodes, quads, _ = compact(all_coords, quads)
     quads = _orient_sheets(nodes, quads, group, panel[:, 0], grid, nrm, n)
-    groups = [ShellGroup("TOP", settings.t_top), ShellGroup("BOT", settings.t_bot),
-              ShellGroup("RIB", settings.t_rib), ShellGroup("RIB2", 2 * settings.t_rib)]
-    model = ShellModel(nodes=nodes, quads=quads, triangles=np.zeros((0, 6), int), group=group,
-                       groups=tuple(groups if sandwich else groups[:1]),
-                       material=settings.material, panel=panel, side=side)
-    return _mass_corrections(model, developed, settings, parts, grid, nrm)
+    groups = [
+        ShellGroup("TOP", settings.t_top),
+        ShellGroup("BOT", settings.t_bot),
+        ShellGroup("RIB", settings.t_rib),
+        ShellGroup("RIB2", 2 * settings.t_rib),
+    ]
+    model = ShellModel(
+        nodes=nodes,
+        quads=quads,
+        triangles=np.zeros((0, 6), int),
+        group=group,
+        groups=tuple(groups if sandwich else groups[:1]),
+        material=settings.material,
+        panel=panel,
+        side=side,
+    )
+    built = np.ones(m, bool) if built is None else np.asarray(built, bool)
+    return _mass_corrections(model, developed, settings, parts, grid, nrm, built)
+
+
+def built_share(model: ShellModel, built: np.ndarray) -> np.ndarray:
+    """(e + f,) float: the share of each element that belongs to built panels, 0 to 1 (a
+    shared rib shell is half each panel's rib).
+
+    built : (m,) bool per panel.
+    """
+    if model.panel is None:
+        return np.ones(model.n_elements)
+    weight = np.asarray(built, bool).astype(float)
+    first, second = model.panel[:, 0], model.panel[:, 1]
+    shared = second >= 0
+    share = weight[first]
+    share[shared] = 0.5 * (weight[first[shared]] + weight[second[shared]])
+    return share
 
 
 def _orient_sheets(nodes, quads, group, panel, grid, nrm, n) -> np.ndarray:
@@ -341,7 +403,7 @@ def _orient_sheets(nodes, quads, group, panel, grid, nrm, n) -> np.ndarray:
     a, b, d = nodes[quads[:, 0]], nodes[quads[:, 1]], nodes[quads[:, 3]]
     normal = np.cross(b - a, d - a)
     q = grid.shape[1]
-    centre = nrm[:, q // 2, q // 2]                                  # (m, 3)
+    centre = nrm[:, q // 2, q // 2]  # (m, 3)
     flip = (group < 2) & (np.einsum("ij,ij->i", normal, centre[panel]) < 0)
     if flip.any():
         quads = quads.copy()
@@ -349,26 +411,35 @@ def _orient_sheets(nodes, quads, group, panel, grid, nrm, n) -> np.ndarray:
     return quads
 
 
-def _mass_corrections(model: ShellModel, developed, settings: SandwichSettings, parts,
-                      grid, nrm) -> ShellModel:
+def _mass_corrections(
+    model: ShellModel, developed, settings: SandwichSettings, parts, grid, nrm, built: np.ndarray
+) -> ShellModel:
     """Density factors per group (rib plate area over rib shell area, holes) and the stiffener
-    masses lumped on the panel corner lines. See the module docstring."""
+    masses lumped on the panel corner lines. See the module docstring. The holes of ``parts``
+    are counted per area of the ``built`` panels: that rate is what every panel gets."""
     areas = model.element_areas()
+    # the area the holes come from: the built panels' part of each element
+    built_areas = areas * built_share(model, built)
     groups = list(model.groups)
     holes: dict[str, float] = {}
     for part in parts:
         for hole in part.holes:
-            holes[part.kind] = holes.get(part.kind, 0.0) + np.pi * hole.diameter ** 2 / 4
+            holes[part.kind] = holes.get(part.kind, 0.0) + np.pi * hole.diameter**2 / 4
     sheet_kind = {"TOP": "sheet-top", "BOT": "sheet-bottom"}
     for g, grp in enumerate(groups):
         if grp.name in sheet_kind:
-            area = areas[model.group == g].sum()
-            groups[g] = ShellGroup(grp.name, grp.thickness,
-                                   1.0 - holes.get(sheet_kind[grp.name], 0.0) / area)
+            area = built_areas[model.group == g].sum()
+            holed = holes.get(sheet_kind[grp.name], 0.0)
+            groups[g] = ShellGroup(grp.name, grp.thickness, 1.0 - holed / area if holed else 1.0)
     lumped = None
     if settings.buildup == "sandwich":
         shell_area, plate_area = _rib_areas(model, developed, settings, areas)
-        factor = (plate_area - holes.get("rib", 0.0)) / shell_area
+        rib = np.asarray(model.side) >= 0
+        count = np.where(np.asarray(model.panel)[rib, 1] >= 0, 2.0, 1.0)
+        # the rib shell area of the built panels over all, each rib counted once per panel
+        built_rib = float((built_areas[rib] * count).sum()) / shell_area
+        holed = holes.get("rib", 0.0)
+        factor = (plate_area - (holed / built_rib if holed else 0.0)) / shell_area
         for g, grp in enumerate(groups):
             if grp.name in ("RIB", "RIB2"):
                 groups[g] = ShellGroup(grp.name, grp.thickness, factor)
@@ -391,8 +462,9 @@ def _rib_areas(model, developed, settings, areas) -> tuple[float, float]:
     samples = np.asarray(developed.samples, float)
     trim = 0.0
     for s in range(4):
-        line = [samples[:, :, 0], samples[:, -1, :], samples[:, ::-1, -1],
-                samples[:, 0, ::-1]][s]                              # (m, k, 3) corner s -> s+1
+        line = [samples[:, :, 0], samples[:, -1, :], samples[:, ::-1, -1], samples[:, 0, ::-1]][
+            s
+        ]  # (m, k, 3) corner s -> s+1
         for end, other in ((0, (s - 1) % 4), (-1, (s + 1) % 4)):
             inward = line[:, 1] - line[:, 0] if end == 0 else line[:, -2] - line[:, -1]
             inward /= np.linalg.norm(inward, axis=-1, keepdims=True)
@@ -422,8 +494,7 @@ def _stiffener_masses(model, developed, parts, grid, nrm, settings) -> np.ndarra
         i, j = corner_ij[corner]
         p = index[part.panel_id]
         g, nv = grid[p, i, j], nrm[p, i, j]
-        for depth, share in ((top_mid, 1 / 6), ((top_mid + bot_mid) / 2, 2 / 3),
-                             (bot_mid, 1 / 6)):
+        for depth, share in ((top_mid, 1 / 6), ((top_mid + bot_mid) / 2, 2 / 3), (bot_mid, 1 / 6)):
             points.append(g + depth * nv)
             weights.append(share * part.mass)
     _, hit = cKDTree(model.nodes).query(np.array(points))

@@ -23,7 +23,7 @@ SCORDELIS_LO_MM = 92.17
 #: pinched hemisphere: radial displacement under the loads
 PINCHED_HEMISPHERE = 0.094
 #: simply supported 1000 x 1000 x 10 mm plate, E 210 GPa, nu 0.3: k = 4 critical stress, MPa
-PLATE_BUCKLING_MPA = 4 * np.pi ** 2 * 210000.0 / (12 * (1 - 0.3 ** 2)) * (10 / 1000) ** 2
+PLATE_BUCKLING_MPA = 4 * np.pi**2 * 210000.0 / (12 * (1 - 0.3**2)) * (10 / 1000) ** 2
 
 
 def _solve(folder, name, model, cases=(), buckle=None, modes=5, threads=2):
@@ -43,9 +43,14 @@ def mid_surface_value(frd, model, node: int, block: int = 0, name: str = "DISP")
 
 
 def _result(value, reference, model, run, **extra) -> dict:
-    return {"value": float(value), "reference": float(reference),
-            "error": float(value / reference - 1), "elements": model.n_elements,
-            "seconds": round(run.seconds, 2), **extra}
+    return {
+        "value": float(value),
+        "reference": float(reference),
+        "error": float(value / reference - 1),
+        "elements": model.n_elements,
+        "seconds": round(run.seconds, 2),
+        **extra,
+    }
 
 
 def scordelis_lo(folder, n: int = 16) -> dict:
@@ -58,13 +63,18 @@ def scordelis_lo(folder, n: int = 16) -> dict:
     grid = np.stack([X, radius * np.sin(P), radius * np.cos(P)], axis=-1)
     model, index = patch_model(grid, t, Material("SL", 2.0684e4, 0.0, 1e-9, 1.0))
     ends = np.r_[index[:, 0], index[:, -1]]
-    model = model.replace(constraints=((ends[ends >= 0], (2, 3)),
-                                       (np.array([index[n, n]]), (1,))))
+    model = model.replace(constraints=((ends[ends >= 0], (2, 3)), (np.array([index[n, n]]), (1,))))
     load = area_forces(model, 4.3092e-3, (0, 0, -1))
     run, _, frd = _solve(folder, "scordelis", model, [LoadCase("q", forces=load)])
     u = mid_surface_value(frd, model, index[0, n])
-    return _result(-u[2], SCORDELIS_LO_MM, model, run, load_N=load.sum(axis=0).tolist(),
-                   area_mm2=float(radius * np.radians(80.0) * length))
+    return _result(
+        -u[2],
+        SCORDELIS_LO_MM,
+        model,
+        run,
+        load_N=load.sum(axis=0).tolist(),
+        area_mm2=float(radius * np.radians(80.0) * length),
+    )
 
 
 def pinched_hemisphere(folder, n: int = 16) -> dict:
@@ -76,13 +86,18 @@ def pinched_hemisphere(folder, n: int = 16) -> dict:
     theta = np.radians(np.linspace(18.0, 90.0, 2 * n + 1))
     F, T = np.meshgrid(phi, theta, indexing="ij")
     grid = radius * np.stack([np.sin(T) * np.cos(F), np.sin(T) * np.sin(F), np.cos(T)], -1)
-    model, index = patch_model(grid, 0.04, Material("H", 6.825e7, 0.3, 1e-9, 1.0),
-                               tolerance=1e-6)
-    q = 2 * n                                       # grid rows at 0, 90, 180, 270 degrees
+    model, index = patch_model(grid, 0.04, Material("H", 6.825e7, 0.3, 1e-9, 1.0), tolerance=1e-6)
+    q = 2 * n  # grid rows at 0, 90, 180, 270 degrees
     east, north, west, south = (index[r, -1] for r in (0, q, 2 * q, 3 * q))
-    model = model.replace(constraints=(
-        (np.array([east]), (2, 3)), (np.array([west]), (3,)), (np.array([north]), (1,)),
-        (np.array([index[0, 0]]), (2,)), (np.array([index[q, 0]]), (1,))))
+    model = model.replace(
+        constraints=(
+            (np.array([east]), (2, 3)),
+            (np.array([west]), (3,)),
+            (np.array([north]), (1,)),
+            (np.array([index[0, 0]]), (2,)),
+            (np.array([index[q, 0]]), (1,)),
+        )
+    )
     forces = np.zeros((len(model.nodes), 3))
     forces[[east, west, north, south]] = [[2, 0, 0], [-2, 0, 0], [0, -2, 0], [0, 2, 0]]
     run, _, frd = _solve(folder, "hemisphere", model, [LoadCase("pinch", forces=forces)])
@@ -105,12 +120,25 @@ def plate_buckling(folder, n: int = 16) -> dict:
     compression along x (consistent edge loads): the buckling factors are the critical
     stresses in MPa."""
     model, index, edge = square_plate(n)
-    model = model.replace(constraints=((edge, (3,)), (index[0][index[0] >= 0], (1,)),
-                                       (index[:, 0][index[:, 0] >= 0], (2,))))
-    load = edge_forces(model.nodes, index[-1], (-10.0, 0.0, 0.0))      # 1 MPa x 10 mm
-    run, dat, frd = _solve(folder, "plate", model, buckle=LoadCase("compression", forces=load),
-                           modes=5)
+    model = model.replace(
+        constraints=(
+            (edge, (3,)),
+            (index[0][index[0] >= 0], (1,)),
+            (index[:, 0][index[:, 0] >= 0], (2,)),
+        )
+    )
+    load = edge_forces(model.nodes, index[-1], (-10.0, 0.0, 0.0))  # 1 MPa x 10 mm
+    run, dat, frd = _solve(
+        folder, "plate", model, buckle=LoadCase("compression", forces=load), modes=5
+    )
     factors = np.sort(dat.buckling[dat.buckling > 0])
-    return _result(factors[0], PLATE_BUCKLING_MPA, model, run, factors=factors.tolist(),
-                   frd_factors=[v for v, _, _ in frd.results("DISP")],
-                   dat_factors=dat.buckling.tolist(), load_N=load.sum(axis=0).tolist())
+    return _result(
+        factors[0],
+        PLATE_BUCKLING_MPA,
+        model,
+        run,
+        factors=factors.tolist(),
+        frd_factors=[v for v, _, _ in frd.results("DISP")],
+        dat_factors=dat.buckling.tolist(),
+        load_N=load.sum(axis=0).tolist(),
+    )

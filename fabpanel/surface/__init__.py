@@ -18,12 +18,15 @@ from ..data import Surface
 from ..errors import InputError
 from .boundary import boundary_loops, edge_use, loop_lengths
 from .brep import BREP_FORMATS, brep_to_shape, read_brep, shape_to_brep
+from .checks import CREASE_ANGLE
+from .frame import recentred
 from .mesh import MESH_FORMATS, read_mesh
 from .query import SurfaceQuery
 
 log = logging.getLogger(__name__)
 
 __all__ = [
+    "CREASE_ANGLE",
     "SUPPORTED_EXTENSIONS",
     "SurfaceQuery",
     "boundary_loops",
@@ -37,27 +40,37 @@ __all__ = [
 SUPPORTED_EXTENSIONS = tuple(MESH_FORMATS) + tuple(BREP_FORMATS)
 
 
-def load_surface(path: str | Path, units: str | None = None) -> Surface:
+def load_surface(
+    path: str | Path, units: str | None = None, *, crease_angle: float = CREASE_ANGLE
+) -> Surface:
     """Read the design surface from ``path``.
 
     units : length unit of mesh coordinates (``"m"``, ``"mm"``, ``"cm"``); required for meshes,
         ignored for STEP/IGES/BREP, which carry their units.
-    Returns a :class:`Surface` in millimetres. Raises :class:`InputError` with a one-line message
-    (what, which file, how to fix) for anything that cannot be read as a surface.
+    crease_angle : ``[input] crease_angle``, degrees: neighbouring triangles of the (welded)
+        surface mesh folding more sharply than this are refused as a crease.
+    Returns a :class:`Surface` in millimetres, moved into its local frame (``Surface.origin``
+    says from where; :mod:`.frame`), so results do not depend on where the model sits. Raises :class:`InputError` with a one-line message
+    (what, which file, where in the input's units, how to fix) for anything that cannot be read
+    as a surface, and for what the later stages cannot handle: unwelded seams, separate pieces,
+    creases and self-intersections (see :mod:`.checks`).
     """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in SUPPORTED_EXTENSIONS:
-        raise InputError(f"{path.name}: unknown file type {suffix or '(no extension)'!r}; "
-                         f"supported: {', '.join(SUPPORTED_EXTENSIONS)}")
+        raise InputError(
+            f"{path.name}: unknown file type {suffix or '(no extension)'!r}; "
+            f"supported: {', '.join(SUPPORTED_EXTENSIONS)}"
+        )
     if not path.is_file():
         raise InputError(f"{path.name}: file not found ({path}); check the path")
     if path.stat().st_size == 0:
-        raise InputError(f"{path.name}: the file is empty (0 bytes); export the design surface "
-                         f"again")
+        raise InputError(
+            f"{path.name}: the file is empty (0 bytes); export the design surface again"
+        )
     if suffix in MESH_FORMATS:
-        return read_mesh(path, units)
-    return read_brep(path, units)
+        return recentred(read_mesh(path, units, crease_angle))
+    return recentred(read_brep(path, units, crease_angle))
 
 
 def describe_surface(surface: Surface) -> dict:
@@ -76,7 +89,8 @@ def describe_surface(surface: Surface) -> dict:
         "units": surface.units,
         "vertices": len(surface.vertices),
         "faces": len(surface.faces),
-        "bounds_mm": np.round(bounds, 3).tolist(),
+        "bounds_mm": np.round(bounds + surface.origin, 3).tolist(),
+        "origin_mm": np.round(surface.origin, 3).tolist(),
         "size_mm": np.round(bounds[1] - bounds[0], 3).tolist(),
         "area_m2": round(surface.area / 1e6, 6),
         "boundary_loops": len(loops),

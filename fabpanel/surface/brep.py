@@ -27,13 +27,13 @@ import numpy as np
 from ..data import Surface
 from ..errors import InputError, KernelError
 from .boundary import boundary_loops, orient_consistently
+from .checks import CREASE_ANGLE, check_surface
 from .mesh import outer_orientation
 
 log = logging.getLogger(__name__)
 
 #: file extension -> Surface.format
-BREP_FORMATS = {".step": "step", ".stp": "step", ".iges": "iges", ".igs": "iges",
-                ".brep": "brep"}
+BREP_FORMATS = {".step": "step", ".stp": "step", ".iges": "iges", ".igs": "iges", ".brep": "brep"}
 
 #: linear deflection as a fraction of the bounding-box diagonal, and its limits in mm
 TESS_RELATIVE = 5e-5
@@ -55,8 +55,9 @@ def shape_to_brep(shape) -> bytes:
     from OCP.TopTools import TopTools_FormatVersion
 
     stream = io.BytesIO()
-    BRepTools.Write_s(shape, stream, False, False,
-                      TopTools_FormatVersion.TopTools_FormatVersion_CURRENT)
+    BRepTools.Write_s(
+        shape, stream, False, False, TopTools_FormatVersion.TopTools_FormatVersion_CURRENT
+    )
     if not stream.getvalue():
         raise KernelError("BREP writing gave no data")
     return stream.getvalue()
@@ -84,16 +85,20 @@ def brep_to_shape(data: bytes, name: str = "shape"):
 # --------------------------------------------------------------------------------------------
 # reading
 # --------------------------------------------------------------------------------------------
-def read_brep(path: Path, units: str | None = None) -> Surface:
+def read_brep(path: Path, units: str | None = None, crease_angle: float = CREASE_ANGLE) -> Surface:
     """Read a STEP, IGES or BREP file into a :class:`Surface` in millimetres.
 
     units : ignored (B-rep files carry their units); logged when it was given.
-    Raises :class:`InputError` when the file cannot be read or holds no face.
+    crease_angle : degrees; a sharper fold of the welded tessellation, within a face or between
+        two faces, is refused (see :func:`~.checks.check_surface`).
+    Raises :class:`InputError` when the file cannot be read, holds no face, or fails a check of
+    :func:`~.checks.check_surface`.
     """
     fmt = BREP_FORMATS[path.suffix.lower()]
     if units is not None:
-        log.info("%s: --units %s ignored, %s files carry their own units", path.name, units,
-                 fmt.upper())
+        log.info(
+            "%s: --units %s ignored, %s files carry their own units", path.name, units, fmt.upper()
+        )
     if fmt == "step":
         shape, declared = _read_step(path)
     elif fmt == "iges":
@@ -102,20 +107,39 @@ def read_brep(path: Path, units: str | None = None) -> Surface:
         shape, declared = _read_native(path), "mm"
     faces = shape_faces(shape)
     if not faces:
-        raise InputError(f"{path.name}: contains no surface (no faces); export the design "
-                         f"surface as a surface or a mesh")
+        raise InputError(
+            f"{path.name}: contains no surface (no faces); export the design "
+            f"surface as a surface or a mesh"
+        )
     try:
         vertices, triangles, _ = tessellate(shape)
     except KernelError as err:
-        raise InputError(f"{path.name}: {err}; repair the surface in the modeller (or export a "
-                         f"mesh)") from err
+        raise InputError(
+            f"{path.name}: {err}; repair the surface in the modeller (or export a mesh)"
+        ) from err
     triangles, _ = orient_consistently(triangles)
     triangles = outer_orientation(vertices, triangles)
+    check_surface(
+        vertices, triangles, name=path.name, units=declared, crease_angle=crease_angle, brep=True
+    )
     loops = boundary_loops(triangles, vertices, where=path.name)
-    log.info("read %s: %d faces, tessellated to %d vertices, %d triangles, %d boundary loops",
-             path.name, len(faces), len(vertices), len(triangles), len(loops))
-    return Surface(vertices=vertices, faces=triangles, boundary_loops=loops, source=path,
-                   format=fmt, units=declared, brep=shape_to_brep(shape))
+    log.info(
+        "read %s: %d faces, tessellated to %d vertices, %d triangles, %d boundary loops",
+        path.name,
+        len(faces),
+        len(vertices),
+        len(triangles),
+        len(loops),
+    )
+    return Surface(
+        vertices=vertices,
+        faces=triangles,
+        boundary_loops=loops,
+        source=path,
+        format=fmt,
+        units=declared,
+        brep=shape_to_brep(shape),
+    )
 
 
 def _set_session_unit_mm() -> None:
@@ -140,11 +164,15 @@ def _read_step(path: Path):
     try:
         status = reader.ReadFile(str(path))
     except Exception as err:
-        raise InputError(f"{path.name}: cannot read as STEP ({err}); export the surface again "
-                         f"as STEP AP203/AP214/AP242") from err
+        raise InputError(
+            f"{path.name}: cannot read as STEP ({err}); export the surface again "
+            f"as STEP AP203/AP214/AP242"
+        ) from err
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
-        raise InputError(f"{path.name}: not a readable STEP file ({status.name}); export the "
-                         f"surface again as STEP AP203/AP214/AP242")
+        raise InputError(
+            f"{path.name}: not a readable STEP file ({status.name}); export the "
+            f"surface again as STEP AP203/AP214/AP242"
+        )
     declared = "mm"
     try:
         lengths = AsciiSequence()
@@ -152,7 +180,7 @@ def _read_step(path: Path):
         if lengths.Length():
             declared = _unit_name(lengths.Value(1).ToCString())
     except Exception as err:  # the unit name is informative only; coordinates are mm anyway
-        log.debug("%s: cannot read the declared STEP unit (%s)", path.name, err)
+        log.debug("%s: cannot read the declared STEP unit (%s)", path.name, err, exc_info=True)
     return _transfer(reader, path, "STEP"), declared
 
 
@@ -165,11 +193,15 @@ def _read_iges(path: Path):
     try:
         status = reader.ReadFile(str(path))
     except Exception as err:
-        raise InputError(f"{path.name}: cannot read as IGES ({err}); export the surface again "
-                         f"as IGES 5.3 or STEP") from err
+        raise InputError(
+            f"{path.name}: cannot read as IGES ({err}); export the surface again "
+            f"as IGES 5.3 or STEP"
+        ) from err
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
-        raise InputError(f"{path.name}: not a readable IGES file ({status.name}); export the "
-                         f"surface again as IGES 5.3 or STEP")
+        raise InputError(
+            f"{path.name}: not a readable IGES file ({status.name}); export the "
+            f"surface again as IGES 5.3 or STEP"
+        )
     return _transfer(reader, path, "IGES"), "mm"
 
 
@@ -177,18 +209,24 @@ def _transfer(reader, path: Path, kind: str):
     try:
         roots = reader.NbRootsForTransfer()
         if roots == 0:
-            raise InputError(f"{path.name}: no {kind} entities found (is this really {kind}?); "
-                             f"export the design surface as a surface or a mesh")
+            raise InputError(
+                f"{path.name}: no {kind} entities found (is this really {kind}?); "
+                f"export the design surface as a surface or a mesh"
+            )
         reader.TransferRoots()
         shape = reader.OneShape()
     except InputError:
         raise
     except Exception as err:
-        raise InputError(f"{path.name}: OCCT cannot convert the {kind} entities ({err}); export "
-                         f"the surface again or as a mesh") from err
+        raise InputError(
+            f"{path.name}: OCCT cannot convert the {kind} entities ({err}); export "
+            f"the surface again or as a mesh"
+        ) from err
     if shape.IsNull():
-        raise InputError(f"{path.name}: contains no surface (no faces); export the design "
-                         f"surface as a surface or a mesh")
+        raise InputError(
+            f"{path.name}: contains no surface (no faces); export the design "
+            f"surface as a surface or a mesh"
+        )
     return shape
 
 
@@ -201,19 +239,32 @@ def _read_native(path: Path):
     try:
         BRepTools.Read_s(shape, str(path), BRep_Builder())
     except Exception as err:
-        raise InputError(f"{path.name}: cannot read as OCCT BREP ({err}); write it with "
-                         f"BRepTools::Write or export STEP") from err
+        raise InputError(
+            f"{path.name}: cannot read as OCCT BREP ({err}); write it with "
+            f"BRepTools::Write or export STEP"
+        ) from err
     if shape.IsNull():
-        raise InputError(f"{path.name}: not an OCCT BREP file (no shape read); write it with "
-                         f"BRepTools::Write or export STEP")
+        raise InputError(
+            f"{path.name}: not an OCCT BREP file (no shape read); write it with "
+            f"BRepTools::Write or export STEP"
+        )
     return shape
 
 
 def _unit_name(text: str) -> str:
     """'MILLIMETRE' / 'METRE' / 'INCH'... -> 'mm' / 'm' / lower-case name."""
     key = text.strip().upper()
-    return {"MILLIMETRE": "mm", "MILLIMETER": "mm", "MM": "mm", "METRE": "m", "METER": "m",
-            "M": "m", "CENTIMETRE": "cm", "CENTIMETER": "cm", "CM": "cm"}.get(key, key.lower())
+    return {
+        "MILLIMETRE": "mm",
+        "MILLIMETER": "mm",
+        "MM": "mm",
+        "METRE": "m",
+        "METER": "m",
+        "M": "m",
+        "CENTIMETRE": "cm",
+        "CENTIMETER": "cm",
+        "CM": "cm",
+    }.get(key, key.lower())
 
 
 # --------------------------------------------------------------------------------------------
@@ -249,8 +300,7 @@ def linear_deflection(shape) -> float:
     return float(np.clip(TESS_RELATIVE * bbox_diagonal(shape), TESS_MIN, TESS_MAX))
 
 
-def tessellate(shape, deflection: float | None = None
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def tessellate(shape, deflection: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Triangulate every face of ``shape`` and weld the faces along their seams.
 
     Returns ``vertices (n, 3) float`` mm, ``triangles (m, 3) int`` wound like the faces'
@@ -275,24 +325,34 @@ def tessellate(shape, deflection: float | None = None
             raise KernelError(f"OCCT could not tessellate face {index}")
         transform = location.Transformation()
         # OCCT exposes nodes one by one; this runs once per load, not per query
-        nodes = np.array([poly.Node(i).Transformed(transform).Coord()
-                          for i in range(1, poly.NbNodes() + 1)], dtype=float)
-        tris = np.array([poly.Triangle(i).Get() for i in range(1, poly.NbTriangles() + 1)],
-                        dtype=np.int64) - 1
+        nodes = np.array(
+            [poly.Node(i).Transformed(transform).Coord() for i in range(1, poly.NbNodes() + 1)],
+            dtype=float,
+        )
+        tris = (
+            np.array(
+                [poly.Triangle(i).Get() for i in range(1, poly.NbTriangles() + 1)], dtype=np.int64
+            )
+            - 1
+        )
         if face.Orientation() == TopAbs_REVERSED:
             tris = tris[:, ::-1]
         points.append(nodes)
         triangles.append(tris + offset)
         face_ids.append(np.full(len(tris), index, dtype=np.int64))
         offset += len(nodes)
-    vertices, tri, ids = weld_tessellation(np.vstack(points), np.vstack(triangles),
-                                           np.concatenate(face_ids))
+    vertices, tri, ids = weld_tessellation(
+        np.vstack(points), np.vstack(triangles), np.concatenate(face_ids)
+    )
     return vertices, tri, ids
 
 
-def weld_tessellation(vertices: np.ndarray, triangles: np.ndarray, face_ids: np.ndarray,
-                      relative: float = WELD_RELATIVE
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def weld_tessellation(
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    face_ids: np.ndarray,
+    relative: float = WELD_RELATIVE,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Merge tessellation nodes closer than ``relative`` x bbox diagonal, id-stable.
 
     BRepMesh discretises each edge once and reuses those points in both adjacent faces, so seam
@@ -318,6 +378,9 @@ def weld_tessellation(vertices: np.ndarray, triangles: np.ndarray, face_ids: np.
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     triangles = rank[inverse.ravel()][triangles]
-    keep = ((triangles[:, 0] != triangles[:, 1]) & (triangles[:, 1] != triangles[:, 2])
-            & (triangles[:, 2] != triangles[:, 0]))
+    keep = (
+        (triangles[:, 0] != triangles[:, 1])
+        & (triangles[:, 1] != triangles[:, 2])
+        & (triangles[:, 2] != triangles[:, 0])
+    )
     return vertices[first[order]], triangles[keep], face_ids[keep]

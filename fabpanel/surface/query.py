@@ -44,14 +44,17 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     n = len(vertices)
     flat = faces.ravel()
-    sums = np.stack([np.bincount(flat, weights=np.repeat(cross[:, c], 3), minlength=n)
-                     for c in range(3)], axis=1)
+    sums = np.stack(
+        [np.bincount(flat, weights=np.repeat(cross[:, c], 3), minlength=n) for c in range(3)],
+        axis=1,
+    )
     length = np.linalg.norm(sums, axis=1, keepdims=True)
     return np.divide(sums, length, out=np.zeros_like(sums), where=length > 0)
 
 
-def triangle_samples(triangles: np.ndarray, max_level: int = MAX_LEVEL
-                     ) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+def triangle_samples(
+    triangles: np.ndarray, max_level: int = MAX_LEVEL
+) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
     """Points covering each triangle, for nearest-triangle searches with a k-d tree.
 
     triangles : (m, 3, 3) float, mm.
@@ -122,14 +125,20 @@ class MeshLocator:
             chunk = max(1, MAX_PAIRS // large)
             for start in range(0, p, chunk):
                 ids = np.arange(start, min(start + chunk, p))
-                self._update(points, ids, np.broadcast_to(self._large, (len(ids), large)),
-                             best_d, best_t, best_x)
+                self._update(
+                    points,
+                    ids,
+                    np.broadcast_to(self._large, (len(ids), large)),
+                    best_d,
+                    best_t,
+                    best_x,
+                )
         todo, k = np.arange(p), min(CANDIDATES, m)
         while len(todo) and m:
             unresolved = []
             chunk = max(1, MAX_PAIRS // k)
             for start in range(0, len(todo), chunk):
-                ids = todo[start:start + chunk]
+                ids = todo[start : start + chunk]
                 dist_s, near = self.tree.query(points[ids], k=k)
                 dist_s, near = dist_s.reshape(len(ids), k), near.reshape(len(ids), k)
                 self._update(points, ids, self._owner[near], best_d, best_t, best_x)
@@ -142,15 +151,22 @@ class MeshLocator:
             k = min(4 * k, m)
         return best_x, best_d, best_t
 
-    def _update(self, points: np.ndarray, ids: np.ndarray, cand: np.ndarray, best_d: np.ndarray,
-                best_t: np.ndarray, best_x: np.ndarray) -> None:
+    def _update(
+        self,
+        points: np.ndarray,
+        ids: np.ndarray,
+        cand: np.ndarray,
+        best_d: np.ndarray,
+        best_t: np.ndarray,
+        best_x: np.ndarray,
+    ) -> None:
         """Keep, per point ``ids``, the closest of the candidate triangles ``cand (i, k)``."""
         import trimesh
 
         k = cand.shape[1]
         foot = trimesh.triangles.closest_point(
-            self.triangles[cand].reshape(-1, 3, 3),
-            np.repeat(points[ids], k, axis=0)).reshape(len(ids), k, 3)
+            self.triangles[cand].reshape(-1, 3, 3), np.repeat(points[ids], k, axis=0)
+        ).reshape(len(ids), k, 3)
         dist = np.linalg.norm(foot - points[ids, None], axis=2)
         pick = np.argmin(dist, axis=1)
         rows = np.arange(len(ids))
@@ -223,7 +239,8 @@ class SurfaceQuery:
     def uv_bounds(self) -> tuple[float, float, float, float]:
         """``(umin, umax, vmin, vmax)`` of the single B-rep face's parameter domain."""
         face = self._single_face("uv_bounds")
-        return face.bounds
+        umin, umax, vmin, vmax = face.bounds
+        return umin, umax, vmin, vmax
 
     def evaluate_uv(self, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Exact points and outward unit normals at parameters of the single B-rep face.
@@ -249,9 +266,11 @@ class SurfaceQuery:
     def _single_face(self, what: str) -> _Face:
         if len(self._faces) != 1:
             kind = "a mesh" if not self._faces else f"a B-rep with {len(self._faces)} faces"
-            raise GeometryError(f"{self.surface.source.name}: {what} needs a B-rep surface of a "
-                                f"single face, this is {kind}; export the design surface as one "
-                                f"untrimmed NURBS face")
+            raise GeometryError(
+                f"{self.surface.source.name}: {what} needs a B-rep surface of a "
+                f"single face, this is {kind}; export the design surface as one "
+                f"untrimmed NURBS face"
+            )
         return self._faces[0]
 
     def _init_brep(self, data: bytes) -> None:
@@ -275,8 +294,7 @@ class SurfaceQuery:
         own_normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         agreement = np.einsum("ij,ij->i", own_normals, self.mesh.face_normals(nearest))
         votes = np.bincount(face_ids[voters], weights=agreement, minlength=len(faces))
-        self._faces = [_Face(face, 1.0 if votes[i] >= 0 else -1.0)
-                       for i, face in enumerate(faces)]
+        self._faces = [_Face(face, 1.0 if votes[i] >= 0 else -1.0) for i, face in enumerate(faces)]
 
     def _closest_exact(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         _, mesh_distance, tri = self._own.nearest(points)
@@ -332,8 +350,9 @@ class _Face:
         distance, _ = self._edge_tree.query(points)
         return distance - self._edge_margin
 
-    def project(self, point: np.ndarray, limit: float = np.inf
-                ) -> tuple[tuple[float, float], np.ndarray]:
+    def project(
+        self, point: np.ndarray, limit: float = np.inf
+    ) -> tuple[tuple[float, float], np.ndarray]:
         """Exact closest point on the (trimmed) face: ``((u, v), point (3,))``.
 
         The nearest orthogonal foot inside the face is the answer unless it is farther than
@@ -347,8 +366,10 @@ class _Face:
         self.projector.Perform(pnt)
         if self.projector.IsDone() and self.projector.NbPoints() > 0:
             u, v = self.projector.LowerDistanceParameters()
-            if (self.projector.LowerDistance() <= limit
-                    and self.classifier.Perform(gp_Pnt2d(u, v)) != TopAbs_OUT):
+            if (
+                self.projector.LowerDistance() <= limit
+                and self.classifier.Perform(gp_Pnt2d(u, v)) != TopAbs_OUT
+            ):
                 return (u, v), np.array(self.projector.NearestPoint().Coord())
         return self._project_on_boundary(pnt)
 
@@ -374,8 +395,9 @@ class _Face:
             return np.full(3, np.nan)
         return self.sign * np.array(props.Normal().Coord())
 
-    def evaluate(self, u: np.ndarray, v: np.ndarray,
-                 mesh: MeshLocator) -> tuple[np.ndarray, np.ndarray]:
+    def evaluate(
+        self, u: np.ndarray, v: np.ndarray, mesh: MeshLocator
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Points and outward normals at parameter arrays ``u, v (n,)``."""
         from OCP.gp import gp_Pnt, gp_Vec
 
@@ -388,9 +410,10 @@ class _Face:
             normals[i] = np.cross(du.Coord(), dv.Coord())
         length = np.linalg.norm(normals, axis=1, keepdims=True)
         scale = np.linalg.norm(points, axis=1, keepdims=True) + 1.0
-        singular = (length < 1e-12 * scale ** 2).ravel()
-        normals = self.sign * np.divide(normals, length, out=np.zeros_like(normals),
-                                        where=length > 0)
+        singular = (length < 1e-12 * scale**2).ravel()
+        normals = self.sign * np.divide(
+            normals, length, out=np.zeros_like(normals), where=length > 0
+        )
         if singular.any():
             foot, _, tri = mesh.nearest(points[singular])
             normals[singular] = mesh.normals_at(foot, tri)
