@@ -325,16 +325,16 @@ def signal_probe(sig: signal.Signals) -> dict:
             stderr=subprocess.PIPE,
             text=True,
         )
-        while len(_children(proc.pid)) < 2:
+        while len(children(proc.pid)) < 2:
             time.sleep(0.1)
         time.sleep(2.0)
-        workers = _children(proc.pid)
+        workers = children(proc.pid)
         sent = time.perf_counter()
         proc.send_signal(sig)
         _, stderr = proc.communicate()
         seconds = time.perf_counter() - sent
         time.sleep(2.0)
-        alive = [w for w in workers if _alive(w)]
+        alive = [w for w in workers if alive(w)]
         debris = [p.name for p in folder.iterdir() if ".partial-" in p.name]
         swept = None
         if debris:
@@ -390,7 +390,7 @@ def moved_probe() -> dict:
     return {"probe": "vault moved by +1e6 m (develop)", **figures}
 
 
-def _children(pid: int) -> list[int]:
+def children(pid: int) -> list[int]:
     found = []
     for task in Path(f"/proc/{pid}/task").glob("*"):
         children = task / "children"
@@ -398,7 +398,7 @@ def _children(pid: int) -> list[int]:
     return found
 
 
-def _alive(pid: int) -> bool:
+def alive(pid: int) -> bool:
     try:
         state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
     except FileNotFoundError:

@@ -7,6 +7,7 @@ Each test reproduces a failure a user met (issue 14) with a small generated shap
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import signal
@@ -21,32 +22,16 @@ import pytest
 import fabpanel as fp
 from fabpanel.outdir import STAGING_MARK, sweep_stale
 
-
-def _vault_obj(
-    path: Path,
-    scale: float = 1.0,
-    length: float = 6.0,
-    width: float = 4.0,
-    rise: float = 0.8,
-    n: int = 24,
-) -> Path:
-    """A shallow barrel vault (chord ``width``, along x ``length``), as an OBJ in metres x scale."""
-    x, y = np.meshgrid(
-        np.linspace(0, length, n + 1), np.linspace(-width / 2, width / 2, n + 1), indexing="ij"
-    )
-    radius = (rise**2 + (width / 2) ** 2) / (2 * rise)
-    z = np.sqrt(radius**2 - y**2) - (radius - rise)
-    points = np.stack([x, y, z], axis=-1).reshape(-1, 3) * scale
-    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    v = (i * (n + 1) + j).ravel()
-    quads = np.stack([v, v + n + 1, v + n + 2, v + 1], axis=1)
-    path.write_text(
-        "\n".join(f"v {a:.12g} {b:.12g} {c:.12g}" for a, b, c in points)
-        + "\n"
-        + "\n".join("f " + " ".join(str(q + 1) for q in quad) for quad in quads)
-        + "\n"
-    )
-    return path
+# the probes' shape generator and process helpers (benchmarks/reliability.py runs the same
+# probes as a report)
+_spec = importlib.util.spec_from_file_location(
+    "reliability_probes", Path(__file__).resolve().parents[1] / "benchmarks" / "reliability.py"
+)
+probes = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(probes)
+_vault_obj = probes.vault
+_children = probes.children
+_alive = probes.alive
 
 
 def _cli(*args: str, cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
@@ -158,7 +143,7 @@ def _dead_pid() -> int:
     [
         (1000.0, "m", None, "--units mm"),  # mm coordinates declared as metres
         (1.0, "mm", None, "--units m"),  # metre coordinates declared as mm
-        (1.0, "m", "0.05 m", "--panel-size"),  # 9600 panels on a 6 x 4 m vault
+        (10.0, "m", "0.5 m", "--panel-size"),  # 10600 panels on a 60 x 40 m vault
     ],
 )
 def test_unit_and_size_mistakes_are_refused_at_once(tmp_path, scale, units, size, hint):
@@ -224,22 +209,6 @@ def test_error_level_issues_exit_3_unless_allowed(tmp_path):
 # ---------------------------------------------------------------------------------------------
 # signals
 # ---------------------------------------------------------------------------------------------
-def _children(pid: int) -> list[int]:
-    found = []
-    for task in Path(f"/proc/{pid}/task").glob("*"):
-        text = (task / "children").read_text() if (task / "children").exists() else ""
-        found += [int(c) for c in text.split()]
-    return found
-
-
-def _alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except (FileNotFoundError, ProcessLookupError):
-        return False
-    return state != "Z"
-
-
 def _start_build(tmp_path: Path) -> tuple[subprocess.Popen, Path]:
     """An export that spends its time in the build's worker processes (~100 panels)."""
     _vault_obj(tmp_path / "vault.obj")
