@@ -135,21 +135,56 @@ def make_staging(target: Path) -> Path:
                 f"{staging} exists and is not fabpanel's; remove it or choose another output folder"
             )
         shutil.rmtree(staging)
-    staging.mkdir(parents=True)
-    (staging / STAGING_MARK).write_text(str(os.getpid()))
+    try:
+        staging.mkdir(parents=True)
+        (staging / STAGING_MARK).write_text(str(os.getpid()))
+    except OSError as exc:  # a parent that is a file, a read-only or virtual file system
+        raise InputError(
+            f"cannot create the output folder {target}: {exc.strerror or exc}; "
+            f"choose a folder you can write with --out"
+        ) from None
     return staging
 
 
-def move_into_place(staging: Path, target: Path) -> None:
-    """Rename the finished staging folder to ``target``, replacing an earlier fabpanel output."""
+def move_into_place(staging: Path, target: Path, force: bool) -> None:
+    """Rename the finished staging folder to ``target``, replacing an earlier fabpanel output.
+
+    The target is checked again: something may have been written there while the run worked.
+    If it may not be replaced, the finished output is kept beside it under a visible name and
+    :class:`InputError` says where.
+    """
     (staging / STAGING_MARK).unlink(missing_ok=True)
+    occupied = target.exists() or target.is_symlink()
+    if occupied and not _replaceable(target, force):
+        kept = _free_sibling(target)
+        staging.rename(kept)
+        raise InputError(
+            f"output folder {target} was filled by something else while this run "
+            f"worked; it is left as it is and the finished output is in {kept}"
+        )
     old = None
-    if target.exists():
+    if occupied:
         old = target.parent / f".{target.name}.old-{os.getpid()}"
         target.rename(old)
     staging.rename(target)
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
+
+
+def _replaceable(target: Path, force: bool) -> bool:
+    if target.is_symlink() or not target.is_dir():
+        return False
+    if not any(target.iterdir()):
+        return True
+    return force and is_fabpanel_output(target)
+
+
+def _free_sibling(target: Path) -> Path:
+    for n in range(1, 1000):
+        candidate = target.parent / f"{target.name}-{n}"
+        if not candidate.exists() and not candidate.is_symlink():
+            return candidate
+    raise InputError(f"no free folder name beside {target}; tidy its parent folder")
 
 
 def discard_staging(staging: Path) -> None:

@@ -112,28 +112,33 @@ def run(
         raise InputError(f"unknown stage {until!r}; use one of {', '.join(STAGES)}")
     progress = progress or _Silent()
     target = Path(out_dir).resolve() if out_dir else job.output_dir
-    if write:
-        check_target(target, job_inputs(job), force)
+    if not write:
+        return _run_stages(job, _checked_surface(job, progress), None, until, jobs, progress)
+    check_target(target, job_inputs(job), force)
+    swept = sweep_stale(target)
+    if swept:
+        log.info("removed %d folder(s) left by earlier runs that were killed", len(swept))
+    staging = make_staging(target)  # before any work: an unwritable target stops at once
+    try:
+        surface = _checked_surface(job, progress)
+        result = _run_stages(job, surface, staging, until, jobs, progress)
+    except BaseException:
+        discard_staging(staging)
+        raise
+    move_into_place(staging, target, force)
+    return Result(**{**result.__dict__, "out_dir": target})
+
+
+def _checked_surface(job: Job, progress: Progress) -> Surface:
+    """The job's surface, loaded, with the panel count estimated (a unit mistake stops here)."""
     surface = load(job)
-    estimate = check_panel_count(surface, job)  # a unit mistake stops here, at once
+    estimate = check_panel_count(surface, job)
     if estimate > MANY_PANELS:
         progress.note(
             f"{surface.source.name} asks for about {estimate:.0f} panels of "
             f"{job.panelize.panel_size / 1000:g} m; a larger panel size runs faster"
         )
-    if not write:
-        return _run_stages(job, surface, None, until, jobs, progress)
-    swept = sweep_stale(target)
-    if swept:
-        log.info("removed %d folder(s) left by earlier runs that were killed", len(swept))
-    staging = make_staging(target)
-    try:
-        result = _run_stages(job, surface, staging, until, jobs, progress)
-    except BaseException:
-        discard_staging(staging)
-        raise
-    move_into_place(staging, target)
-    return Result(**{**result.__dict__, "out_dir": target})
+    return surface
 
 
 def job_inputs(job: Job) -> list[Path]:

@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 
 import fabpanel as fp
-from fabpanel.outdir import STAGING_MARK, sweep_stale
+from fabpanel.errors import InputError
+from fabpanel.outdir import STAGING_MARK, make_staging, move_into_place, sweep_stale
 
 # the probes' shape generator and process helpers (benchmarks/reliability.py runs the same
 # probes as a report)
@@ -127,6 +128,46 @@ def test_stale_staging_folders_of_dead_runs_are_swept(tmp_path):
     foreign.mkdir()
     assert sweep_stale(target) == [stale]
     assert not stale.exists() and live.exists() and foreign.exists()
+
+
+def _finished_staging(target: Path) -> Path:
+    staging = make_staging(target)
+    (staging / "manifest.json").write_text('{"fabpanel": "x", "stages_run": []}')
+    return staging
+
+
+@pytest.mark.parametrize("force", [False, True])
+def test_a_folder_filled_during_the_run_is_never_replaced(tmp_path, force):
+    target = tmp_path / "out"
+    staging = _finished_staging(target)
+    target.mkdir()  # another program writes there while the run works
+    (target / "drawing.dwg").write_text("precious")
+    with pytest.raises(InputError, match="out-1"):
+        move_into_place(staging, target, force)
+    assert (target / "drawing.dwg").read_text() == "precious"
+    assert (tmp_path / "out-1" / "manifest.json").is_file() and not staging.exists()
+
+
+def test_another_runs_output_written_meanwhile_needs_force(tmp_path):
+    target = tmp_path / "out"
+    other = _finished_staging(target)
+    move_into_place(other, target, False)  # a second run finished first
+    staging = _finished_staging(tmp_path / "out")
+    with pytest.raises(InputError):
+        move_into_place(staging, target, False)
+    staging = _finished_staging(tmp_path / "out")
+    (staging / "mine").write_text("new")
+    move_into_place(staging, target, True)
+    assert (target / "mine").is_file()
+
+
+@pytest.mark.parametrize("below", ["a-file/sub", "/proc/fabpanel-out"])
+def test_an_output_folder_that_cannot_be_made_is_refused(workdir, below):
+    target = below if below.startswith("/") else str(workdir / below)
+    (workdir / "a-file").write_text("not a folder")
+    result = _cli("export", "job.toml", "--out", target, "--until", "panelize", cwd=workdir)
+    assert result.returncode == 2, result.stderr
+    assert len(_lines(result.stderr)) == 1 and "--out" in result.stderr
 
 
 def _dead_pid() -> int:
