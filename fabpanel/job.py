@@ -230,9 +230,11 @@ class PanelizeSection(_Section):
 
     _table = "panelize"
 
-    #: ``auto``: ``grid`` for four-sided surfaces without openings, ``skeleton`` otherwise;
+    #: ``auto``: ``grid`` for four-sided surfaces without openings; otherwise both ``skeleton``
+    #: and ``field`` are made and the better by the layout gates is kept (the reason is in the
+    #: manifest); ``field``: gmsh's quasi-structured quads on a conformal flattening;
     #: ``layout``: the quad mesh in ``layout`` is used as the panel layout
-    method: Literal["auto", "grid", "skeleton", "layout"] = "auto"
+    method: Literal["auto", "grid", "skeleton", "field", "layout"] = "auto"
     #: target panel edge length (panels are made as close to it as the layout allows)
     panel_size: PositiveLength = _default("1200 mm")
     #: explicit panel counts along the grid's two directions (override ``panel_size``)
@@ -253,6 +255,9 @@ class PanelizeSection(_Section):
     #: refuse a job whose surface area asks for more panels than this (area / panel_size²),
     #: before any layout work: usually a unit mistake (a mesh in mm declared in m)
     max_panels: int = Field(default=5000, ge=1, le=1_000_000)
+    #: a panel narrower than this (its narrower mid-line) is an error-level issue: its ribs and
+    #: stiffeners would meet. Default: 0.3 x panel_size
+    min_panel_width: PositiveLength | None = None
 
     def _check(self, w: _Written) -> None:
         if self.method == "layout" and not self.layout:

@@ -132,7 +132,7 @@ def test_deterministic(case):
 
 def test_auto_chooses_the_skeleton_for_openings(case):
     _, surface, _, job, _, _ = case
-    assert choose_method(surface, job.replace(panelize={"method": "auto"})) == "skeleton"
+    assert choose_method(surface, job.replace(panelize={"method": "auto"})) == "compare"
 
 
 def test_catmull_clark_density_also_gives_a_valid_layout(case):

@@ -7,28 +7,39 @@ Methods:
 - ``skeleton``: the medial-axis method (Tam & Armstrong 1991, Rigby 2003, Oval et al. 2018) for
   surfaces with openings and irregular outlines: a coarse quad decomposition of the boundary's
   projection, densified per strip to the target size, lifted onto the surface and relaxed there.
+- ``field``: a boundary-aligned cross field quantised into quads by gmsh's quasi-structured
+  mesher, on a conformal flattening of the surface (:mod:`.field`).
 - ``layout``: a quad mesh drawn by hand, mapped onto the surface.
 
-``auto`` picks ``grid`` for four-sided surfaces without openings and ``skeleton`` otherwise.
+``auto`` picks ``grid`` for four-sided surfaces without openings; otherwise it makes both a
+``skeleton`` and a ``field`` layout and keeps the one with the better score by the layout gates
+(:func:`.gates.layout_score`), recording both scores and the reason in ``metrics["auto"]``.
+Every layout is measured against the gates (:mod:`.gates`), whatever made it.
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import replace
 
 from ..data import PanelLayout, Surface
+from ..errors import GeometryError
 from ..job import Job
 from ..surface import SurfaceQuery
 from .estimate import check_panel_count
+from .gates import gate_issues, gate_measures, layout_score
 from .grid import grid_panelize, is_four_sided
+
+log = logging.getLogger(__name__)
 
 
 def choose_method(surface: Surface, job: Job) -> str:
-    """The method ``auto`` stands for on this surface."""
+    """The method ``auto`` stands for on this surface (``"compare"``: skeleton and field both
+    made, the better kept)."""
     method = job.panelize.method
     if method != "auto":
         return method
-    return "grid" if is_four_sided(surface, job.panelize.corner_angle) else "skeleton"
+    return "grid" if is_four_sided(surface, job.panelize.corner_angle) else "compare"
 
 
 def panelize(surface: Surface, job: Job, query: SurfaceQuery | None = None) -> PanelLayout:
@@ -41,11 +52,54 @@ def panelize(surface: Surface, job: Job, query: SurfaceQuery | None = None) -> P
     """
     check_panel_count(surface, job)
     query = query or SurfaceQuery(surface)
-    return replace(_layout_by_method(surface, job, query), origin=surface.origin)
-
-
-def _layout_by_method(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
     method = choose_method(surface, job)
+    if method == "compare":
+        layout = _better_layout(surface, job, query)
+    else:
+        layout = _gated(_layout_by_method(method, surface, job, query), surface, job)
+    return replace(layout, origin=surface.origin)
+
+
+def _gated(layout: PanelLayout, surface: Surface, job: Job) -> PanelLayout:
+    """The layout with its gate measures in ``metrics["gates"]`` and the gates' issues."""
+    measures = gate_measures(layout, surface, job.panelize.panel_size)
+    measures["score"] = layout_score(measures)
+    return replace(
+        layout,
+        metrics={**layout.metrics, "gates": measures},
+        issues=tuple(layout.issues) + gate_issues(layout, measures, job),
+    )
+
+
+def _better_layout(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
+    """Both the skeleton and the field layout; the one with the higher gate score."""
+    made: dict[str, PanelLayout] = {}
+    failed: dict[str, str] = {}
+    for method in ("skeleton", "field"):
+        try:
+            made[method] = _gated(_layout_by_method(method, surface, job, query), surface, job)
+        except GeometryError as err:
+            failed[method] = str(err)
+    if not made:
+        raise GeometryError(" / ".join(failed.values()))
+    scores = {m: layout.metrics["gates"]["score"] for m, layout in made.items()}
+    best = max(scores, key=lambda m: (scores[m], m == "skeleton"))
+    if failed:
+        reason = f"{best}: the other method failed ({next(iter(failed.values()))})"
+    elif len(scores) > 1:
+        reason = (
+            f"{best} scores {scores[best]:.3f} against {min(scores.values()):.3f} "
+            f"(edges in band + corners in 60-120°, less penalties for failed gates)"
+        )
+    else:
+        reason = best
+    chosen = made[best]
+    auto = {"chosen": best, "scores": scores, "failed": failed, "reason": reason}
+    log.info("auto layout: %s", reason)
+    return replace(chosen, metrics={**chosen.metrics, "auto": auto})
+
+
+def _layout_by_method(method: str, surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
     if method == "grid":
         return grid_panelize(surface, job, query)
     if method == "layout":
@@ -53,6 +107,10 @@ def _layout_by_method(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
 
         path = (job.base_dir / job.panelize.layout).resolve()
         return user_layout(path, job.input.units, surface, query, job)
+    if method == "field":
+        from .field import field_panelize
+
+        return field_panelize(surface, job, query)
     from .decompose import skeleton_panelize
 
     return skeleton_panelize(surface, job, query)

@@ -83,26 +83,20 @@ def from_plane(points2d: np.ndarray, frame: PlaneFrame) -> np.ndarray:
     return frame.origin + p[:, :1] * frame.x_axis + p[:, 1:] * frame.y_axis
 
 
-class _Projector:
-    """The surface mesh flattened onto the plane, with a locator of its triangles."""
+class FlatMesh:
+    """A triangle mesh with 2D coordinates per vertex (a projection or a flattening), and a
+    locator of its flat triangles: maps 2D points back onto the 3D mesh."""
 
-    def __init__(self, surface: Surface, frame: PlaneFrame):
+    def __init__(self, flat: np.ndarray, faces: np.ndarray, vertices: np.ndarray):
         from ..surface.query import MeshLocator
 
-        flat = to_plane(surface.vertices, frame)
-        tri = flat[surface.faces]
-        signed = 0.5 * (
-            (tri[:, 1, 0] - tri[:, 0, 0]) * (tri[:, 2, 1] - tri[:, 0, 1])
-            - (tri[:, 2, 0] - tri[:, 0, 0]) * (tri[:, 1, 1] - tri[:, 0, 1])
-        )
-        _check_fold(surface, flat, signed)
-        self.flat = flat
-        self.faces = np.asarray(surface.faces, dtype=np.int64)
-        self.vertices = np.asarray(surface.vertices, dtype=float)
-        self.locator = MeshLocator(np.column_stack([flat, np.zeros(len(flat))]), self.faces)
+        self.flat = np.asarray(flat, dtype=float)
+        self.faces = np.asarray(faces, dtype=np.int64)
+        self.vertices = np.asarray(vertices, dtype=float)
+        self.locator = MeshLocator(np.column_stack([self.flat, np.zeros(len(flat))]), self.faces)
 
     def interpolate(self, points2d: np.ndarray) -> np.ndarray:
-        """(p, 3) float: surface-mesh points above plane points (nearest flat triangle)."""
+        """(p, 3) float: mesh points at 2D points (points outside: the nearest flat triangle)."""
         p = np.column_stack([points2d, np.zeros(len(points2d))])
         foot, _, tri = self.locator.nearest(p)
         corners = self.flat[self.faces[tri]]  # (p, 3, 2)
@@ -122,6 +116,24 @@ class _Projector:
         bary = np.clip(np.stack([u, v, w], axis=1), 0.0, 1.0)
         bary /= bary.sum(axis=1, keepdims=True)
         return np.einsum("pk,pkc->pc", bary, self.vertices[self.faces[tri]])
+
+
+class _Projector(FlatMesh):
+    """The surface mesh flattened onto the plane, with a locator of its triangles."""
+
+    def __init__(self, surface: Surface, frame: PlaneFrame):
+        flat = to_plane(surface.vertices, frame)
+        _check_fold(surface, flat, signed_triangle_areas(flat, surface.faces))
+        super().__init__(flat, surface.faces, surface.vertices)
+
+
+def signed_triangle_areas(flat: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(m,) float: signed areas of 2D triangles (positive counter-clockwise)."""
+    tri = flat[faces]
+    return 0.5 * (
+        (tri[:, 1, 0] - tri[:, 0, 0]) * (tri[:, 2, 1] - tri[:, 0, 1])
+        - (tri[:, 2, 0] - tri[:, 0, 0]) * (tri[:, 1, 1] - tri[:, 0, 1])
+    )
 
 
 def _check_fold(surface: Surface, flat: np.ndarray, signed: np.ndarray) -> None:

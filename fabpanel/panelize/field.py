@@ -1,0 +1,183 @@
+"""The ``field`` method: a cross field quantised into quads by gmsh, on a conformal flattening.
+
+1. flatten the design surface conformally (:mod:`fabpanel.geom.conformal`): angles are kept and
+   lengths scale by the same factor in every direction at each point, so the size field
+   ``panel_size x scale`` is exact in every direction (a plane projection stretches along the
+   slope only);
+2. gmsh's quasi-structured quad mesher (Reberol et al. 2021) meshes the flat domain: a
+   boundary-aligned cross field by heat diffusion, parallelograms packed along it, midpoint
+   subdivision into quads, cavity remeshing of the irregular vertices. The boundary loops are
+   splines through the flattened design boundary, split at its corners (turning more than
+   ``[panelize] corner_angle``); ``singular_points`` are embedded as mesh vertices. It runs in a
+   child process (:mod:`.gmsh_quads`), which also calibrates the size (layout.md §2.3);
+3. the quads are mapped back onto the surface through the flattening's triangles, and the
+   boundary vertices are put on the design boundary exactly.
+
+Any count of openings works; the surface must be one piece with a boundary (a closed surface
+has no loop to flatten from) of disc-like topology with holes.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..data import PanelLayout, Surface
+from ..errors import GeometryError
+from ..geom.conformal import conformal_flattening
+from ..job import Job
+from ..surface import SurfaceQuery
+from ..units import length_scale
+from .boundary import DesignBoundary
+from .lift import FlatMesh
+from .quality import layout_metrics
+from .skeleton_input import turning_angles
+
+log = logging.getLogger(__name__)
+
+#: a gmsh run longer than this is stopped (it never takes more than seconds on 5000 panels)
+GMSH_TIMEOUT = 300.0
+
+
+def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
+    """Panel layout by the field method (see the module docstring)."""
+    settings = job.panelize
+    name = surface.source.name
+    if not surface.boundary_loops:
+        raise GeometryError(
+            f"{name}: the surface is closed (no boundary); the field method flattens it "
+            f"from a boundary, cut it open first"
+        )
+    flat, scale = conformal_flattening(surface.vertices, surface.faces, surface.boundary_loops[0])
+    flat_mesh = FlatMesh(flat, surface.faces, surface.vertices)
+    points = _singular_points(surface, job, query, flat_mesh)
+    nodes, quads, on_curve, info = _gmsh_quads(surface, flat, scale, points, job)
+    vertices = flat_mesh.interpolate(nodes)
+    boundary = DesignBoundary(surface)
+    vertices[on_curve] = boundary.closest(vertices[on_curve])
+    vertices[~on_curve], _, _ = query.closest(vertices[~on_curve])
+    quads = _orient_outwards(vertices, quads, query)
+    layout = PanelLayout(
+        vertices=vertices,
+        quads=quads,
+        panel_ids=tuple(f"P{i + 1:03d}" for i in range(len(quads))),
+        method="field",
+    )
+    loops3d = [surface.vertices[loop] for loop in surface.boundary_loops]
+    metrics, found = layout_metrics(layout, query, settings.panel_size, job.cutting, loops3d)
+    metrics["field"] = info
+    log.info("field panelisation: %d panels", len(quads))
+    return PanelLayout(
+        vertices=vertices,
+        quads=quads,
+        panel_ids=layout.panel_ids,
+        method="field",
+        metrics=metrics,
+        issues=found,
+    )
+
+
+def _singular_points(
+    surface: Surface, job: Job, query: SurfaceQuery, flat_mesh: FlatMesh
+) -> np.ndarray:
+    """The job's singular points in the flat domain (each becomes a layout vertex)."""
+    if not job.panelize.singular_points:
+        return np.zeros((0, 2))
+    scale = length_scale(job.input.units or "mm")
+    points = np.asarray(job.panelize.singular_points, dtype=float) * scale - surface.origin
+    on_surface, _, triangles = query.mesh.nearest(points)
+    faces = surface.faces[triangles]
+    corners = surface.vertices[faces]
+    weights = _barycentric(on_surface, corners)
+    return np.einsum("pk,pkc->pc", weights, flat_mesh.flat[faces])
+
+
+def _barycentric(points: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    v0, v1, v2 = b - a, c - a, points - a
+    d00, d01 = np.einsum("ij,ij->i", v0, v0), np.einsum("ij,ij->i", v0, v1)
+    d11, d20 = np.einsum("ij,ij->i", v1, v1), np.einsum("ij,ij->i", v2, v0)
+    d21 = np.einsum("ij,ij->i", v2, v1)
+    denom = np.maximum(d00 * d11 - d01 * d01, 1e-300)
+    v = (d11 * d20 - d01 * d21) / denom
+    w = (d00 * d21 - d01 * d20) / denom
+    weights = np.clip(np.stack([1.0 - v - w, v, w], axis=1), 0.0, 1.0)
+    return weights / weights.sum(axis=1, keepdims=True)
+
+
+def _corner_flags(surface: Surface, flat: np.ndarray, corner_angle: float) -> np.ndarray:
+    """Per concatenated loop vertex: does the boundary turn there by more than corner_angle?
+
+    Measured in the conformal flattening, which keeps angles."""
+    flags = []
+    for loop in surface.boundary_loops:
+        flags.append(np.abs(turning_angles(flat[loop])) > corner_angle)
+    return np.concatenate(flags)
+
+
+def _gmsh_quads(
+    surface: Surface, flat: np.ndarray, scale: np.ndarray, points: np.ndarray, job: Job
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+    """Run :mod:`.gmsh_quads` on the flat domain in a child process; its nodes and quads."""
+    from ..parallel import child_preexec
+
+    loops = list(surface.boundary_loops)
+    starts = np.cumsum([0, *[len(loop) for loop in loops[:-1]]])
+    with tempfile.TemporaryDirectory(prefix="fabpanel-gmsh-") as folder:
+        source, target = Path(folder) / "in.npz", Path(folder) / "out.npz"
+        np.savez(
+            source,
+            flat=flat,
+            faces=surface.faces,
+            scale=scale,
+            loops=np.concatenate(loops),
+            loop_starts=starts,
+            corners=_corner_flags(surface, flat, job.panelize.corner_angle),
+            points=points,
+            h=float(job.panelize.panel_size),
+            area=surface.area,
+        )
+        script = Path(__file__).with_name("gmsh_quads.py")
+        env = {**os.environ, "OMP_NUM_THREADS": "1"}
+        try:
+            run = subprocess.run(
+                [sys.executable, str(script), str(source), str(target)],
+                capture_output=True,
+                text=True,
+                timeout=GMSH_TIMEOUT,
+                preexec_fn=child_preexec,
+                env=env,
+                check=False,
+            )
+        except subprocess.TimeoutExpired:
+            raise GeometryError(
+                f"{surface.source.name}: gmsh's quad mesher took longer than "
+                f'{GMSH_TIMEOUT:.0f} s; use [panelize] method = "skeleton"'
+            ) from None
+        if run.returncode != 0 or not target.is_file():
+            reason = (run.stderr.strip().splitlines() or [f"exit {run.returncode}"])[-1]
+            raise GeometryError(
+                f"{surface.source.name}: gmsh's quad mesher failed ({reason}); use "
+                f'[panelize] method = "skeleton"'
+            )
+        out = np.load(target)
+        info = {
+            "size_factor": round(float(out["factor"]), 4),
+            "flat_score": round(float(out["score"]), 4),
+        }
+        return out["nodes"], out["quads"].astype(np.int64), out["on_curve"], info
+
+
+def _orient_outwards(vertices: np.ndarray, quads: np.ndarray, query: SurfaceQuery) -> np.ndarray:
+    """Quads counter-clockwise seen from the outer side (all of gmsh's quads turn one way)."""
+    corners = vertices[quads]
+    normals = np.cross(corners[:, 2] - corners[:, 0], corners[:, 3] - corners[:, 1])
+    _, surface_normals, _ = query.closest(corners.mean(axis=1))
+    agree = np.einsum("ij,ij->i", normals, surface_normals)
+    return quads if np.sum(agree > 0) >= np.sum(agree < 0) else quads[:, [0, 3, 2, 1]]

@@ -1,0 +1,217 @@
+"""Quality gates of a panel layout, for every method: what a shop needs from the layout.
+
+Measured on every layout (``metrics["gates"]``) and turned into issues that name the panels:
+
+================================  =================================  =========  =============
+measure                           threshold                          severity   code
+================================  =================================  =========  =============
+panels / (area / panel_size²)     ≤ 1.3                              warning    layout-panel-count
+edges in 0.5-1.25 x panel_size    ≥ 90 %                             warning    layout-edge-band
+shortest edge                     ≥ 0.3 x panel_size                 warning    layout-short-edge
+corner angles                     all in 45-135°, ≥ 95 % in 60-120°  warning    layout-corner-angle
+narrowest panel (mid-line)        ≥ ``[panelize] min_panel_width``   error      layout-narrow-panel
+quads form a manifold surface     Euler characteristic = surface's   error      layout-topology
+================================  =================================  =========  =============
+
+A panel narrower than ``min_panel_width`` (default 0.3 x panel_size) cannot be built: the ribs
+and corner stiffeners of its two long sides meet. The score that ``method = "auto"`` uses to
+choose between layouts is :func:`layout_score`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..data import PanelLayout, Surface
+from ..errors import Issue
+from ..job import Job
+from .quality import corner_angles
+
+#: thresholds (fractions of the panel size, degrees, shares)
+MAX_COUNT_RATIO = 1.3
+EDGE_BAND = (0.5, 1.25)
+MIN_BAND_SHARE = 0.90
+MIN_EDGE = 0.3
+CORNER_LIMITS = (45.0, 135.0)
+CORNER_GOOD = (60.0, 120.0)
+MIN_GOOD_CORNERS = 0.95
+#: default narrowest panel, fraction of the panel size
+MIN_WIDTH = 0.3
+#: bins of edge length / panel size in the histogram
+HISTOGRAM_BINS = (0.0, 0.3, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, np.inf)
+#: panels named in one message
+NAMED = 8
+
+
+def euler_characteristic(vertices: int, faces: np.ndarray) -> int:
+    """V - E + F of a polygon mesh given its vertex count and faces (rows of vertex indices)."""
+    sides = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)
+    edges = len(np.unique(np.sort(sides, axis=1), axis=0))
+    used = len(np.unique(faces)) if len(faces) else vertices
+    return int(used - edges + len(faces))
+
+
+def panel_widths(corners: np.ndarray) -> np.ndarray:
+    """(m,) float: each quad's narrower mid-line (between the midpoints of opposite sides)."""
+    mids = 0.5 * (corners + np.roll(corners, -1, axis=1))
+    across = np.linalg.norm(mids[:, 2] - mids[:, 0], axis=1)
+    along = np.linalg.norm(mids[:, 3] - mids[:, 1], axis=1)
+    return np.minimum(across, along)
+
+
+def gate_measures(layout: PanelLayout, surface: Surface, target: float) -> dict:
+    """Every measure of the table above, JSON-ready."""
+    corners = layout.vertices[layout.quads]
+    edges = layout.edges
+    lengths = np.linalg.norm(layout.vertices[edges[:, 1]] - layout.vertices[edges[:, 0]], axis=1)
+    relative = lengths / target
+    angles = corner_angles(corners)
+    widths = panel_widths(corners)
+    counts, _ = np.histogram(relative, bins=np.asarray(HISTOGRAM_BINS))
+    sides = np.sort(np.stack([layout.quads, np.roll(layout.quads, -1, 1)], 2).reshape(-1, 2), 1)
+    _, side_uses = np.unique(sides, axis=0, return_counts=True)
+    expected = surface.area / target**2
+    return {
+        "surface_area_m2": round(surface.area / 1e6, 3),
+        "panels": len(layout.quads),
+        "panels_for_area": round(float(expected), 1),
+        "count_ratio": round(len(layout.quads) / max(expected, 1e-9), 4),
+        "edge_histogram": {
+            "bins_vs_panel_size": [float(b) if np.isfinite(b) else None for b in HISTOGRAM_BINS],
+            "counts": [int(c) for c in counts],
+        },
+        "edges_in_band": round(
+            float(np.mean((relative >= EDGE_BAND[0]) & (relative <= EDGE_BAND[1]))), 4
+        ),
+        "shortest_edge_mm": round(float(lengths.min()), 1),
+        "shortest_edge_vs_panel_size": round(float(relative.min()), 4),
+        "narrowest_panel_mm": round(float(widths.min()), 1),
+        "narrowest_panel": layout.panel_ids[int(np.argmin(widths))],
+        "corner_angle_deg": [round(float(angles.min()), 2), round(float(angles.max()), 2)],
+        "corners_in_60_120": round(float(np.mean(_within(angles, CORNER_GOOD))), 4),
+        "corners_in_45_135": round(float(np.mean(_within(angles, CORNER_LIMITS))), 4),
+        "euler_characteristic": euler_characteristic(len(layout.vertices), layout.quads),
+        "surface_euler_characteristic": euler_characteristic(len(surface.vertices), surface.faces),
+        "manifold": bool(side_uses.max() <= 2) if len(side_uses) else True,
+    }
+
+
+def _within(values: np.ndarray, limits: tuple[float, float]) -> np.ndarray:
+    return (values >= limits[0]) & (values <= limits[1])
+
+
+def layout_score(measures: dict) -> float:
+    """One number to compare layouts of one surface (higher is better).
+
+    The share of edges in the band plus the share of good corners, less a penalty for each
+    gate failed: too many panels (by how much), an edge shorter than 0.3 x panel_size, corners
+    outside 45-135°, a wrong topology. Documented in the README (Panel layouts).
+    """
+    score = measures["edges_in_band"] + measures["corners_in_60_120"]
+    score -= 2.0 * max(0.0, measures["count_ratio"] - MAX_COUNT_RATIO)
+    score -= 0.5 * (measures["shortest_edge_vs_panel_size"] < MIN_EDGE)
+    score -= 0.5 * (measures["corners_in_45_135"] < 1.0)
+    score -= 10.0 * (
+        not measures["manifold"]
+        or measures["euler_characteristic"] != measures["surface_euler_characteristic"]
+    )
+    return round(float(score), 4)
+
+
+def _names(layout: PanelLayout, panels: np.ndarray) -> str:
+    ids = [layout.panel_ids[i] for i in panels[:NAMED]]
+    more = f" and {len(panels) - NAMED} more" if len(panels) > NAMED else ""
+    return ", ".join(ids) + more
+
+
+def gate_issues(layout: PanelLayout, measures: dict, job: Job) -> tuple[Issue, ...]:
+    """Issues for every gate the layout fails, naming the panels and the likely fix."""
+    target = job.panelize.panel_size
+    other = "skeleton" if layout.method == "field" else "field"
+    fix = f'try [panelize] method = "{other}" or another panel_size'
+    corners = layout.vertices[layout.quads]
+    issues: list[Issue] = []
+    min_width = job.panelize.min_panel_width or MIN_WIDTH * target
+    widths = panel_widths(corners)
+    narrow = np.flatnonzero(widths < min_width)
+    if len(narrow):
+        issues.append(
+            Issue(
+                "layout-narrow-panel",
+                f"{len(narrow)} panel(s) narrower than {min_width:.0f} mm (narrowest "
+                f"{widths.min():.0f} mm): {_names(layout, narrow[np.argsort(widths[narrow])])}; "
+                f"their ribs and stiffeners would meet, {fix}",
+                layout.panel_ids[int(narrow[np.argmin(widths[narrow])])],
+                "error",
+            )
+        )
+    if not measures["manifold"] or (
+        measures["euler_characteristic"] != measures["surface_euler_characteristic"]
+    ):
+        issues.append(
+            Issue(
+                "layout-topology",
+                f"the layout's Euler characteristic is {measures['euler_characteristic']}, the "
+                f"surface's {measures['surface_euler_characteristic']} (manifold: "
+                f"{measures['manifold']}): panels are missing or overlap; {fix}",
+                "",
+                "error",
+            )
+        )
+    if measures["count_ratio"] > MAX_COUNT_RATIO:
+        issues.append(
+            Issue(
+                "layout-panel-count",
+                f"{measures['panels']} panels where the area needs about "
+                f"{measures['panels_for_area']:.0f} ({measures['count_ratio']:.2f} x, more than "
+                f"{MAX_COUNT_RATIO} x): panels are smaller than the {target:.0f} mm asked; {fix}",
+            )
+        )
+    issues += _edge_issues(layout, measures, target, fix)
+    issues += _corner_issues(layout, corners, fix)
+    return tuple(issues)
+
+
+def _edge_issues(layout: PanelLayout, measures: dict, target: float, fix: str) -> list[Issue]:
+    corners = layout.vertices[layout.quads]
+    side = np.linalg.norm(np.roll(corners, -1, axis=1) - corners, axis=2) / target
+    issues = []
+    if measures["edges_in_band"] < MIN_BAND_SHARE:
+        outside = np.flatnonzero(((side < EDGE_BAND[0]) | (side > EDGE_BAND[1])).any(axis=1))
+        issues.append(
+            Issue(
+                "layout-edge-band",
+                f"{measures['edges_in_band']:.0%} of panel edges lie within "
+                f"{EDGE_BAND[0]}-{EDGE_BAND[1]} x panel_size (wanted {MIN_BAND_SHARE:.0%}); "
+                f"panels with edges outside: {_names(layout, outside)}; {fix}",
+            )
+        )
+    short = np.flatnonzero((side < MIN_EDGE).any(axis=1))
+    if len(short):
+        issues.append(
+            Issue(
+                "layout-short-edge",
+                f"{len(short)} panel(s) have an edge shorter than {MIN_EDGE} x panel_size "
+                f"(shortest {measures['shortest_edge_mm']:.0f} mm): {_names(layout, short)}; {fix}",
+                layout.panel_ids[int(short[0])],
+            )
+        )
+    return issues
+
+
+def _corner_issues(layout: PanelLayout, corners: np.ndarray, fix: str) -> list[Issue]:
+    angles = corner_angles(corners)
+    bad = np.flatnonzero((~_within(angles, CORNER_LIMITS)).any(axis=1))
+    good_share = float(np.mean(_within(angles, CORNER_GOOD)))
+    if not len(bad) and good_share >= MIN_GOOD_CORNERS:
+        return []
+    return [
+        Issue(
+            "layout-corner-angle",
+            f"corner angles {angles.min():.0f}-{angles.max():.0f}°, {good_share:.0%} within "
+            f"60-120° (wanted all within 45-135° and {MIN_GOOD_CORNERS:.0%} within 60-120°)"
+            + (f"; panels beyond 45-135°: {_names(layout, bad)}" if len(bad) else "")
+            + f"; {fix}",
+            layout.panel_ids[int(bad[0])] if len(bad) else "",
+        )
+    ]
