@@ -70,7 +70,7 @@ DEFECT_WEIGHT = 30.0
 #: normals must be normals: this weight makes the consistency terms nearly hard constraints
 NORMAL_WEIGHT = 10.0
 #: samples on the design boundary (supports, free edges) stay there
-BOUNDARY_WEIGHT = 10.0
+BOUNDARY_WEIGHT = 1000.0
 #: the design surface's foot points are recomputed once a sample has moved this far (share of
 #: the mean panel edge) since they were last computed; in between the tangent planes stand in
 RELINEARISE = 2e-3

@@ -15,6 +15,7 @@ import numpy as np
 from ..data import DevelopedPanels, PanelLayout, Surface
 from ..geom.quads import bilinear_grid, coons_patch, resample_polylines
 from ..job import Job
+from ..panelize.boundary import boundary_deviation
 from ..surface import SurfaceQuery
 from .measure import classify_and_measure
 from .sides import side_planes
@@ -74,6 +75,7 @@ def developed_panels(
         job,
     )
     metrics["method"] = method
+    metrics["boundary_deviation_mm"] = boundary_deviation(layout, samples, query.surface)
     metrics.update(extra_metrics or {})
     log.info("develop (%s): %s", method, {c: classes.count(c) for c in set(classes)})
     return DevelopedPanels(
@@ -118,6 +120,7 @@ def _surface_patches(
     m = len(layout.quads)
     edges = layout.edges  # (e, 2) sorted vertex pairs
     curves = surface_sides(layout.vertices[edges[:, 0]], layout.vertices[edges[:, 1]], query, k)
+    _follow_design_boundary(layout, query, edges, curves)
     lookup = {(int(a), int(b)): i for i, (a, b) in enumerate(edges)}
     starts, ends = layout.quads, np.roll(layout.quads, -1, axis=1)
     sides = np.empty((m, 4, k, 3))
@@ -134,6 +137,46 @@ def _surface_patches(
     points[:, :, 0], points[:, :, -1] = grid[:, :, 0], grid[:, :, -1]
     points[:, 0, :], points[:, -1, :] = grid[:, 0, :], grid[:, -1, :]
     return points, normals.reshape(m, k, k, 3)
+
+
+#: a layout vertex this close to the design boundary lies on it (mm)
+ON_BOUNDARY = 0.5
+#: a boundary stretch longer than this multiple of the traced side is not the side's (the two
+#: corners lie on the boundary, but the panel side cuts across, e.g. over a notch)
+STRETCH_LIMIT = 1.5
+
+
+def _follow_design_boundary(
+    layout: PanelLayout, query: SurfaceQuery, edges: np.ndarray, curves: np.ndarray
+) -> None:
+    """Replace (in place) the traced curve of each boundary side whose two corners lie on the
+    design boundary by the design boundary between them: the panel then follows the design's
+    outline, rounded corners included, instead of cutting the chord across."""
+    from ..panelize.boundary import DesignBoundary
+
+    if not query.surface.boundary_loops:
+        return
+    neighbours = layout.side_neighbours
+    starts, ends = layout.quads, np.roll(layout.quads, -1, axis=1)
+    outer = np.unique(
+        np.sort(np.stack([starts[neighbours < 0], ends[neighbours < 0]], 1), 1), axis=0
+    )
+    if not len(outer):
+        return
+    boundary = DesignBoundary(query.surface)
+    _, distance, _, _ = boundary.locate(layout.vertices)
+    index = {(int(a), int(b)): i for i, (a, b) in enumerate(edges)}
+    k = curves.shape[1]
+    for a, b in outer:
+        if distance[a] > ON_BOUNDARY or distance[b] > ON_BOUNDARY:
+            continue
+        stretch = boundary.between(layout.vertices[a], layout.vertices[b], k)
+        e = index[(int(a), int(b))]
+        if stretch is None:
+            continue
+        traced = np.linalg.norm(np.diff(curves[e], axis=0), axis=1).sum()
+        if np.linalg.norm(np.diff(stretch, axis=0), axis=1).sum() <= STRETCH_LIMIT * traced:
+            curves[e] = stretch
 
 
 def _pin_corners(

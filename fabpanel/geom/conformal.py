@@ -43,7 +43,7 @@ def conformal_flattening(
     """2D coordinates per vertex of a conformal flattening, and the scale per vertex.
 
     vertices : (n, 3) mm; faces : (m, 3) int; boundary_loop : vertex indices of one boundary
-    loop (two of its vertices are pinned, so the flattening is in mm at their distance).
+    loop (two of its vertices are pinned; the result is scaled to the surface's area).
     Returns ``flat (n, 2)`` (counter-clockwise where the triangles are) and ``scale (n,)``,
     the flat length of a unit surface length at each vertex (area-weighted over its triangles).
     Raises :class:`GeometryError` when the flattening folds (a triangle turns over).
@@ -80,6 +80,10 @@ def conformal_flattening(
         raise GeometryError(
             f"the conformal flattening folds over at {int((signed <= 0).sum())} triangles"
         )
+    # the pins sit at their straight distance, not along the surface: equal total areas
+    stretch = np.sqrt(area.sum() / signed.sum())
+    flat *= stretch
+    signed = signed * stretch**2
     return flat, _vertex_scale(flat, faces, signed, area, n)
 
 

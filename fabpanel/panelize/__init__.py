@@ -22,13 +22,17 @@ from __future__ import annotations
 import logging
 from dataclasses import replace
 
+import numpy as np
+
 from ..data import PanelLayout, Surface
 from ..errors import GeometryError
 from ..job import Job
 from ..surface import SurfaceQuery
+from .boundary import DesignBoundary
 from .estimate import check_panel_count
 from .gates import gate_issues, gate_measures, layout_score
 from .grid import grid_panelize, is_four_sided
+from .quality import vertex_valences
 
 log = logging.getLogger(__name__)
 
@@ -60,8 +64,27 @@ def panelize(surface: Surface, job: Job, query: SurfaceQuery | None = None) -> P
     return replace(layout, origin=surface.origin)
 
 
+#: boundary vertices closer than this fraction of the panel size to the design boundary are
+#: moved onto it (a lifted polyline point lies on a chord of the outline, up to a few mm in)
+SNAP_TO_BOUNDARY = 0.05
+
+
+def on_design_boundary(layout: PanelLayout, surface: Surface, panel_size: float) -> PanelLayout:
+    """The layout with its boundary vertices on the design boundary's smooth curve."""
+    if layout.parameters is not None or not surface.boundary_loops:
+        return layout  # a B-rep grid is exact in the face's own parameters
+    _, on_boundary = vertex_valences(layout.quads, len(layout.vertices))
+    feet, distance, _, _ = DesignBoundary(surface).locate(layout.vertices[on_boundary])
+    near = distance <= SNAP_TO_BOUNDARY * panel_size
+    vertices = layout.vertices.copy()
+    index = np.flatnonzero(on_boundary)[near]
+    vertices[index] = feet[near]
+    return replace(layout, vertices=vertices)
+
+
 def _gated(layout: PanelLayout, surface: Surface, job: Job) -> PanelLayout:
     """The layout with its gate measures in ``metrics["gates"]`` and the gates' issues."""
+    layout = on_design_boundary(layout, surface, job.panelize.panel_size)
     measures = gate_measures(layout, surface, job.panelize.panel_size)
     measures["score"] = layout_score(measures)
     return replace(

@@ -10,17 +10,65 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..data import Surface
+from ..data import PanelLayout, Surface
 
 #: (point, segment) pairs evaluated at once
 _CHUNK_PAIRS = 2_000_000
+#: a boundary vertex turning more than this (degrees) is a corner: the smooth curve kinks there
+CORNER_TURN = 30.0
+#: points per boundary segment in the smooth curve
+_SMOOTH_DENSITY = 8
+
+
+def smooth_loop(points: np.ndarray) -> np.ndarray:
+    """The closed boundary polyline as the smooth curve it samples: cubic splines through its
+    vertices (chord-length parameters), one per stretch between corners, periodic without them.
+
+    A mesh's boundary is a polyline whose chords cut inside a rounded outline by the sagitta
+    (5 mm for 0.3 m segments on a 2 m radius); the spline through the same vertices, which lie
+    on the design outline, is within a fraction of a millimetre of it.
+    """
+    from scipy.interpolate import CubicSpline
+
+    n = len(points)
+    if n < 4:
+        return points
+    incoming = points - np.roll(points, 1, axis=0)
+    outgoing = np.roll(points, -1, axis=0) - points
+    cos = np.einsum("ij,ij->i", incoming, outgoing) / np.maximum(
+        np.linalg.norm(incoming, axis=1) * np.linalg.norm(outgoing, axis=1), 1e-300
+    )
+    corners = np.flatnonzero(np.degrees(np.arccos(np.clip(cos, -1, 1))) > CORNER_TURN)
+    if not len(corners):
+        closed = np.vstack([points, points[:1]])
+        return _spline_points(CubicSpline, closed, "periodic")[:-1]
+    pieces = []
+    for start, end in zip(corners, [*corners[1:], corners[0] + n]):
+        run = points[np.arange(start, end + 1) % n]
+        pieces.append(_spline_points(CubicSpline, run, "not-a-knot" if len(run) > 3 else None)[:-1])
+    return np.concatenate(pieces)
+
+
+def _spline_points(spline, run: np.ndarray, condition: str | None) -> np.ndarray:
+    """Dense points of a cubic spline through ``run`` (``None``: the straight polyline)."""
+    chord = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(run, axis=0), axis=1))])
+    keep = np.concatenate([[True], np.diff(chord) > 0])
+    run, chord = run[keep], chord[keep]
+    fine = np.interp(
+        np.linspace(0, len(run) - 1, (len(run) - 1) * _SMOOTH_DENSITY + 1),
+        np.arange(len(run)),
+        chord,
+    )
+    if condition is None or len(run) < 4:
+        return np.column_stack([np.interp(fine, chord, run[:, i]) for i in range(3)])
+    return spline(chord, run, axis=0, bc_type=condition)(fine)
 
 
 class DesignBoundary:
     """The boundary loops of a surface, parametrised by arc length."""
 
     def __init__(self, surface: Surface):
-        loops = [surface.vertices[loop] for loop in surface.boundary_loops]
+        loops = [smooth_loop(surface.vertices[loop]) for loop in surface.boundary_loops]
         self.loops = loops
         self.starts = np.concatenate(loops) if loops else np.zeros((0, 3))
         self.ends = (
@@ -79,7 +127,7 @@ class DesignBoundary:
         """``count`` points evenly spaced along the design boundary from ``start`` to ``end``
         (the shorter way round their loop), or None when the two points do not lie on one loop.
         """
-        _, distance, loop, s = self.locate(np.stack([start, end]))
+        _, _, loop, s = self.locate(np.stack([start, end]))
         if loop[0] != loop[1]:
             return None
         total = self.loop_length[loop[0]]
@@ -99,3 +147,51 @@ class DesignBoundary:
         length = np.linalg.norm(ends - starts, axis=1)
         t = np.where(length > 0, (s - seg_s[index]) / np.where(length > 0, length, 1.0), 0.0)
         return starts + np.clip(t, 0.0, 1.0)[:, None] * (ends - starts)
+
+
+#: points per sample interval when a side's samples are interpolated (the sheets are smooth
+#: B-spline surfaces through the samples, not polylines)
+_DENSITY = 8
+
+
+def boundary_sides_as_curves(layout: PanelLayout, samples: np.ndarray) -> np.ndarray:
+    """(b, (k - 1) * 8 + 1, 3): the sample rows of every panel side on the layout's boundary,
+    interpolated by a cubic spline (chord-length parameters), as the sheets' edges run."""
+    from scipy.interpolate import CubicSpline
+
+    from ..develop.optimise import side_index
+
+    k = samples.shape[1]
+    neighbours = layout.side_neighbours
+    curves = []
+    for panel, side in zip(*np.nonzero(neighbours < 0)):
+        rows, cols = side_index(k, int(side))
+        points = samples[panel][rows, cols]
+        chord = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+        if chord[-1] <= 0:
+            continue
+        fine = np.linspace(0.0, chord[-1], (k - 1) * _DENSITY + 1)
+        curves.append(CubicSpline(chord, points, axis=0)(fine))
+    return np.asarray(curves).reshape(-1, (k - 1) * _DENSITY + 1, 3)
+
+
+def boundary_deviation(layout: PanelLayout, samples: np.ndarray, surface: Surface) -> dict:
+    """How far the panels' boundary sides lie from the design boundary, mm, both ways.
+
+    ``design_to_panels``: largest distance from a design boundary vertex to the nearest
+    boundary side (interpolated through its samples); ``panels_to_design``: largest distance
+    from a point of those sides to the design boundary. Empty for closed surfaces.
+    """
+    from ..geom.polygon import point_segment_distances
+
+    curves = boundary_sides_as_curves(layout, samples)
+    if not surface.boundary_loops or not len(curves):
+        return {}
+    design = DesignBoundary(surface)
+    starts, ends = curves[:, :-1].reshape(-1, 3), curves[:, 1:].reshape(-1, 3)
+    to_panels = point_segment_distances(design.starts, starts, ends)
+    _, to_design, _, _ = design.locate(curves.reshape(-1, 3))
+    return {
+        "design_to_panels": round(float(to_panels.max()), 3),
+        "panels_to_design": round(float(to_design.max()), 3),
+    }

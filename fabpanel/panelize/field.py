@@ -58,6 +58,7 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     flat_mesh = FlatMesh(flat, surface.faces, surface.vertices)
     points = _singular_points(surface, job, query, flat_mesh)
     nodes, quads, on_curve, info = _gmsh_quads(surface, flat, scale, points, job)
+    nodes, info["relaxation"] = _relax(nodes, quads, on_curve, points, flat_mesh, scale, job)
     vertices = flat_mesh.interpolate(nodes)
     boundary = DesignBoundary(surface)
     vertices[on_curve] = boundary.closest(vertices[on_curve])
@@ -81,6 +82,43 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
         metrics=metrics,
         issues=found,
     )
+
+
+def _relax(
+    nodes: np.ndarray,
+    quads: np.ndarray,
+    on_curve: np.ndarray,
+    points: np.ndarray,
+    flat_mesh: FlatMesh,
+    scale: np.ndarray,
+    job: Job,
+) -> tuple[np.ndarray, dict]:
+    """Interior nodes moved to right-angled panels of the asked size (fold-free smoothing,
+    :mod:`.untangle`, with each quad's reference size the panel size times the flattening's
+    scale there). gmsh's own cavity remeshing would do similar work but runs against a time
+    budget, so its result changes from run to run; this does not."""
+    from .untangle import corner_determinants, untangle
+
+    if corner_determinants(nodes, quads).sum() < 0:
+        quads = quads[:, [0, 3, 2, 1]]  # counter-clockwise in the flat domain
+    centres = nodes[quads].mean(axis=1)
+    local = _interpolate_scale(flat_mesh, scale, centres)
+    movable = ~on_curve
+    for point in points:  # the embedded singular points stay where they were asked
+        movable[int(np.argmin(np.linalg.norm(nodes - point, axis=1)))] = False
+    relaxed, info = untangle(nodes, quads, movable, reference=job.panelize.panel_size * local)
+    if info["folded_after"] > info["folded_before"]:
+        return nodes, {**info, "kept": "gmsh"}
+    return relaxed, info
+
+
+def _interpolate_scale(flat_mesh: FlatMesh, scale: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """The flattening's scale at flat points (barycentric in the nearest flat triangle)."""
+    p = np.column_stack([points, np.zeros(len(points))])
+    foot, _, tri = flat_mesh.locator.nearest(p)
+    corners = np.column_stack([flat_mesh.flat, np.zeros(len(flat_mesh.flat))])[flat_mesh.faces[tri]]
+    weights = _barycentric(foot, corners)
+    return np.einsum("pk,pk->p", weights, scale[flat_mesh.faces[tri]])
 
 
 def _singular_points(

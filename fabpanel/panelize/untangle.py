@@ -57,13 +57,16 @@ def corner_determinants(vertices: np.ndarray, quads: np.ndarray) -> np.ndarray:
 
 
 def _energy_and_gradient(
-    x: np.ndarray, base: np.ndarray, free: np.ndarray, ids, scale: float, eps: float
+    x: np.ndarray, base: np.ndarray, free: np.ndarray, ids, scale, eps: float
 ) -> tuple[float, np.ndarray]:
+    """The energy and its gradient; ``scale`` is one reference size or one per corner."""
     centre, nxt, prev = ids
     p = base.copy()
     p[free] = x.reshape(-1, 2)
-    a = (p[nxt] - p[centre]) / scale
-    b = (p[prev] - p[centre]) / scale
+    per_corner = np.ndim(scale) > 0
+    s = np.asarray(scale)[:, None] if per_corner else scale
+    a = (p[nxt] - p[centre]) / s
+    b = (p[prev] - p[centre]) / s
     det = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
     trace = (a * a).sum(axis=1) + (b * b).sum(axis=1)
     root = np.sqrt(eps * eps + det * det)
@@ -76,6 +79,8 @@ def _energy_and_gradient(
     # d det / d a = (b_y, -b_x), d det / d b = (-a_y, a_x)
     grad_a = 2.0 * d_trace[:, None] * a + d_det[:, None] * np.stack([b[:, 1], -b[:, 0]], axis=1)
     grad_b = 2.0 * d_trace[:, None] * b + d_det[:, None] * np.stack([-a[:, 1], a[:, 0]], axis=1)
+    if per_corner:  # the chain rule's 1 / scale, per corner before the sums
+        grad_a, grad_b = grad_a / s, grad_b / s
     n = len(base)
     grad = np.zeros((n, 2))
     for c in range(2):
@@ -84,16 +89,22 @@ def _energy_and_gradient(
             + np.bincount(prev, weights=grad_b[:, c], minlength=n)
             - np.bincount(centre, weights=grad_a[:, c] + grad_b[:, c], minlength=n)
         )
-    return energy, (grad[free] / scale).ravel()
+    return energy, (grad[free] if per_corner else grad[free] / scale).ravel()
 
 
 def untangle(
-    vertices2d: np.ndarray, quads: np.ndarray, movable: np.ndarray, tolerance: float = 1e-6
+    vertices2d: np.ndarray,
+    quads: np.ndarray,
+    movable: np.ndarray,
+    tolerance: float = 1e-6,
+    reference: np.ndarray | None = None,
 ) -> tuple[np.ndarray, dict]:
     """Fold-free, evenly shaped positions of the movable vertices of a planar quad mesh.
 
     vertices2d : (n, 2) float, mm; quads : (m, 4) int, counter-clockwise.
     movable : (n,) bool, the vertices that may move (the interior; boundary samples stay).
+    reference : (m,) float, each quad's reference side length (a size field, e.g. on a
+        flattening whose scale varies); default one size for all, from the mean panel area.
     tolerance : relative energy change that ends the outer loop once nothing is folded.
     Returns ``(vertices (n, 2), info)``; ``info`` has ``folded_before``, ``folded_after``
     (corners with a non-positive determinant), ``outer_iterations`` and ``energy``.
@@ -113,6 +124,7 @@ def untangle(
     # reference corner size: the mean panel area, from the absolute corner determinants
     scale = float(np.sqrt(np.abs(det).sum() / (2.0 * len(det))))
     scale = scale if scale > 0 else 1.0
+    sizes = scale if reference is None else np.repeat(np.asarray(reference, dtype=float), 4)
     x = vertices2d[movable].ravel().copy()
     previous = np.inf
     energy = np.inf
@@ -126,7 +138,7 @@ def untangle(
         result = minimize(
             _energy_and_gradient,
             x,
-            args=(vertices2d, movable, ids, scale, eps),
+            args=(vertices2d, movable, ids, sizes, eps),
             jac=True,
             method="L-BFGS-B",
             options={"maxiter": INNER_ITERATIONS, "gtol": 1e-9, "ftol": 1e-12},

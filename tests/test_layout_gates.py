@@ -1,0 +1,230 @@
+"""Panel layouts that a shop can build (issue 15): the field method, the layout gates, the
+boundary followed exactly, and the conformal flattening they rest on.
+
+Generated fixtures: planar discs and annuli (exact circles known), a cylinder patch (a
+developable surface, so a conformal flattening is an isometry), structured grids with a
+squeezed row (a sliver panel that must be an error).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial import Delaunay
+
+import fabpanel as fp
+from fabpanel.data import PanelLayout, Surface
+from fabpanel.develop.project import sample_panels
+from fabpanel.geom.conformal import conformal_flattening
+from fabpanel.panelize.boundary import DesignBoundary, boundary_deviation, smooth_loop
+from fabpanel.panelize.gates import gate_issues, gate_measures, layout_score, panel_widths
+from fabpanel.surface import SurfaceQuery
+
+
+def _annulus(outer: float, inner: float, spacing: float, rim: int, z=None) -> Surface:
+    """A planar (or lifted by ``z(x, y)``) annulus mesh in mm, its rims as ``rim``-gons."""
+    t = np.linspace(0, 2 * np.pi, rim, endpoint=False)
+    outer_ring = outer * np.column_stack([np.cos(t), np.sin(t)])
+    n_inner = max(12, int(rim * inner / outer))
+    s = np.linspace(0, 2 * np.pi, n_inner, endpoint=False)
+    inner_ring = inner * np.column_stack([np.cos(s), np.sin(s)])
+    xs = np.arange(-outer, outer + spacing, spacing)
+    grid = np.array([(x, y) for x in xs for y in xs])
+    radius = np.linalg.norm(grid, axis=1)
+    keep = (radius < outer - 0.5 * spacing) & (radius > inner + 0.5 * spacing)
+    points = np.vstack([outer_ring, inner_ring, grid[keep]])
+    tri = Delaunay(points).simplices
+    centre = points[tri].mean(axis=1)
+    r = np.linalg.norm(centre, axis=1)
+    tri = tri[(r < outer) & (r > inner)]
+    cross = np.cross(points[tri[:, 1]] - points[tri[:, 0]], points[tri[:, 2]] - points[tri[:, 0]])
+    tri[cross < 0] = tri[cross < 0][:, [0, 2, 1]]
+    height = np.zeros(len(points)) if z is None else z(points[:, 0], points[:, 1])
+    vertices = np.column_stack([points, height])
+    loops = (np.arange(rim), rim + np.arange(n_inner)[::-1])
+    return Surface(vertices, tri, loops, Path("annulus.obj"), "obj", "mm")
+
+
+def _job(size: str = "1 m", **panelize) -> fp.Job:
+    return fp.Job.from_dict(
+        {
+            "input": {"path": "annulus.obj", "units": "mm"},
+            "panelize": {"panel_size": size, **panelize},
+        }
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# conformal flattening and the design boundary
+# ---------------------------------------------------------------------------------------------
+def test_a_cylinder_patch_flattens_isometrically():
+    radius, nu, nv = 4000.0, 40, 30
+    theta = np.linspace(0, 1.2, nu)
+    y = np.linspace(0, 6000.0, nv)
+    tt, yy = np.meshgrid(theta, y, indexing="ij")
+    vertices = np.column_stack(
+        [radius * np.sin(tt).ravel(), yy.ravel(), radius * np.cos(tt).ravel()]
+    )
+    ids = np.arange(nu * nv).reshape(nu, nv)
+    a, b, c, d = ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]
+    faces = np.concatenate([np.stack([a, b, c], -1), np.stack([a, c, d], -1)]).reshape(-1, 3)
+    loop = np.concatenate([ids[:, 0], ids[-1, 1:], ids[-2::-1, -1], ids[0, -2:0:-1]])
+    flat, scale = conformal_flattening(vertices, faces, loop)
+    np.testing.assert_allclose(scale, 1.0, atol=2e-3)  # developable: lengths kept
+    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    surface_length = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
+    flat_length = np.linalg.norm(flat[edges[:, 0]] - flat[edges[:, 1]], axis=1)
+    np.testing.assert_allclose(flat_length, surface_length, rtol=5e-3)
+
+
+def test_the_smooth_boundary_lies_on_the_true_circle():
+    radius = 700.0
+    t = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    polygon = radius * np.column_stack([np.cos(t), np.sin(t), np.zeros_like(t)])
+    chord_sagitta = radius * (1 - np.cos(np.pi / 40))
+    assert chord_sagitta > 2.0  # the polygon's chords are 2 mm inside the circle
+    curve = smooth_loop(polygon)
+    assert np.abs(np.linalg.norm(curve[:, :2], axis=1) - radius).max() < 0.05
+
+
+def test_a_boundary_stretch_runs_along_the_outline_the_short_way():
+    surface = _annulus(5000.0, 1500.0, 400.0, 120)
+    boundary = DesignBoundary(surface)
+    a = np.array([5000.0, 0.0, 0.0])
+    b = np.array([0.0, 5000.0, 0.0])
+    stretch = boundary.between(a, b, 9)
+    radii = np.linalg.norm(stretch[:, :2], axis=1)
+    assert np.abs(radii - 5000.0).max() < 0.05
+    angles = np.degrees(np.arctan2(stretch[:, 1], stretch[:, 0]))
+    np.testing.assert_allclose(angles, np.linspace(0, 90, 9), atol=0.05)  # even, quarter arc
+    assert boundary.between(a, np.array([1500.0, 0.0, 0.0]), 9) is None  # two loops
+
+
+# ---------------------------------------------------------------------------------------------
+# the field method
+# ---------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def dish():
+    """A shallow dish 12 m across with a 2.4 m opening (rims as 160- and 40-gons)."""
+    surface = _annulus(6000.0, 1200.0, 250.0, 160, z=lambda x, y: 1.5e-4 * (x**2 + y**2) / 2)
+    job = _job("1 m", method="field")
+    query = SurfaceQuery(surface)
+    return surface, job, query, fp.panelize(surface, job, query)
+
+
+def test_the_field_layout_meets_the_gates_on_a_dish_with_an_opening(dish):
+    _, _, _, layout = dish
+    gates = layout.metrics["gates"]
+    assert layout.method == "field" and layout.quads.shape[1] == 4
+    assert gates["manifold"] and gates["euler_characteristic"] == 0  # one hole: 2 - 2
+    assert gates["count_ratio"] <= 1.3
+    assert gates["edges_in_band"] >= 0.9
+    assert gates["shortest_edge_vs_panel_size"] >= 0.3
+    assert gates["corners_in_60_120"] >= 0.95
+    assert not [i for i in layout.issues if i.severity == "error"]
+
+
+def test_field_boundary_vertices_lie_on_the_design_outline(dish):
+    _, _, _, layout = dish
+    from fabpanel.panelize.quality import vertex_valences
+
+    _, on_boundary = vertex_valences(layout.quads, len(layout.vertices))
+    radii = np.linalg.norm(layout.vertices[on_boundary][:, :2], axis=1)
+    on_outer = np.abs(radii - 6000.0) < 50
+    on_inner = np.abs(radii - 1200.0) < 50
+    assert (on_outer | on_inner).all()
+    assert np.abs(radii[on_outer] - 6000.0).max() < 0.5  # the true circle, not the 160-gon
+    assert np.abs(radii[on_inner] - 1200.0).max() < 0.5
+
+
+def test_developed_panels_follow_the_design_boundary_within_1_mm(dish):
+    surface, job, query, layout = dish
+    samples, _ = sample_panels(layout, query, job.develop.samples)
+    deviation = boundary_deviation(layout, samples, surface)
+    assert deviation["design_to_panels"] < 1.0 and deviation["panels_to_design"] < 1.0
+
+
+def test_the_field_layout_is_deterministic(dish):
+    surface, job, query, layout = dish
+    again = fp.panelize(surface, job, query)
+    np.testing.assert_array_equal(again.quads, layout.quads)
+    np.testing.assert_array_equal(again.vertices, layout.vertices)
+
+
+def test_auto_keeps_the_better_layout_and_says_why():
+    surface = _annulus(6000.0, 1200.0, 300.0, 160)
+    layout = fp.panelize(surface, _job("1.5 m"))
+    auto = layout.metrics["auto"]
+    assert auto["chosen"] == layout.method and set(auto["scores"]) == {"skeleton", "field"}
+    assert auto["scores"][layout.method] == max(auto["scores"].values())
+    assert layout.method in auto["reason"]
+
+
+def test_a_singular_point_becomes_a_vertex_with_the_field_method():
+    surface = _annulus(6000.0, 1200.0, 300.0, 160)
+    column = (3100.0, 1700.0, 0.0)
+    layout = fp.panelize(surface, _job("1 m", method="field", singular_points=[column]))
+    nearest = np.linalg.norm(layout.vertices - np.array(column), axis=1).min()
+    assert nearest < 1.0
+
+
+# ---------------------------------------------------------------------------------------------
+# the gates
+# ---------------------------------------------------------------------------------------------
+def _grid_layout(squeeze: float) -> tuple[PanelLayout, Surface]:
+    """A 6 x 4 grid of 1 m panels on a plane whose third row is ``squeeze`` m wide."""
+    xs = np.arange(7) * 1000.0
+    ys = np.concatenate([[0, 1000, 2000], 2000 + squeeze * 1000 + np.array([0, 1000])])
+    xx, yy = np.meshgrid(xs, ys, indexing="ij")
+    vertices = np.column_stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)])
+    ids = np.arange(xx.size).reshape(xx.shape)
+    quads = np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], -1).reshape(-1, 4)
+    panel_ids = tuple(f"P{i + 1:03d}" for i in range(len(quads)))
+    layout = PanelLayout(vertices, quads, panel_ids, "layout")
+    tris = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    surface = Surface(vertices, tris, (), Path("grid.obj"), "obj", "mm")
+    return layout, surface
+
+
+def test_a_sliver_row_is_an_error_that_names_its_panels():
+    layout, surface = _grid_layout(0.05)
+    job = _job("1 m")
+    measures = gate_measures(layout, surface, 1000.0)
+    assert measures["narrowest_panel_mm"] == pytest.approx(50.0)
+    assert measures["shortest_edge_mm"] == pytest.approx(50.0)
+    issues = {i.code: i for i in gate_issues(layout, measures, job)}
+    narrow = issues["layout-narrow-panel"]
+    assert narrow.severity == "error" and "P003" in narrow.message and "50 mm" in narrow.message
+    assert "layout-short-edge" in issues
+    good, good_surface = _grid_layout(1.0)
+    good_measures = gate_measures(good, good_surface, 1000.0)
+    assert not gate_issues(good, good_measures, job)
+    assert layout_score(good_measures) > layout_score(measures)
+
+
+def test_min_panel_width_is_a_job_setting():
+    layout, surface = _grid_layout(0.25)
+    measures = gate_measures(layout, surface, 1000.0)
+    assert any(i.code == "layout-narrow-panel" for i in gate_issues(layout, measures, _job()))
+    relaxed = _job("1 m", min_panel_width="200 mm")
+    assert not any(i.code == "layout-narrow-panel" for i in gate_issues(layout, measures, relaxed))
+
+
+def test_panel_widths_are_the_narrower_mid_lines():
+    corners = np.array([[[0, 0, 0], [2000, 0, 0], [2000, 300, 0], [0, 300, 0]]], dtype=float)
+    assert panel_widths(corners)[0] == pytest.approx(300.0)
+
+
+def test_too_many_panels_and_bad_corners_are_warnings():
+    layout, surface = _grid_layout(1.0)
+    shear = layout.vertices.copy()
+    shear[:, 0] += 1.2 * shear[:, 1]  # 40 degree corners
+    sheared = PanelLayout(shear, layout.quads, layout.panel_ids, "layout")
+    measures = gate_measures(sheared, surface, 500.0)  # 0.5 m asked: 4 x too few... per area
+    codes = {i.code: i.severity for i in gate_issues(sheared, measures, _job("500 mm"))}
+    assert codes["layout-corner-angle"] == "warning"
+    dense = gate_measures(layout, surface, 2000.0)
+    assert dense["count_ratio"] == pytest.approx(24 / (24e6 / 4e6))
+    assert "layout-panel-count" in {i.code for i in gate_issues(layout, dense, _job("2 m"))}
