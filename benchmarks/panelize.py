@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/panelize.py [--sizes "1 m"] [--methods skeleton,field] [NAME ...]
 
 Runs only the panelize stage for each example job in examples/ and fabpanel/examples/ and for
-each shape of benchmarks/layout_shapes.py (written to a temporary folder, metres), at each size
+each shape of benchmarks/hard_shapes.py (written to a temporary folder, metres), at each size
 and with each method. Prints a Markdown table (the one in the README's "Panel layouts"
 section) and, last, one JSON object with every figure. The gates are those of
 :mod:`fabpanel.panelize.gates`: panels <= 1.3 x area / size², >= 90 % of edges in
@@ -31,11 +31,11 @@ JOBS = {p.stem: p for p in sorted([*DEMO.glob("*.toml"), *EXAMPLES.glob("*.toml"
 
 
 def hard_shapes(folder: Path) -> dict[str, Path]:
-    """The shapes of benchmarks/layout_shapes.py written as OBJ (metres) into ``folder``."""
-    path = Path(__file__).with_name("layout_shapes.py")
+    """The shapes of benchmarks/hard_shapes.py written as OBJ (metres) into ``folder``."""
+    path = Path(__file__).with_name("hard_shapes.py")
     if not path.is_file():
         return {}
-    spec = importlib.util.spec_from_file_location("layout_shapes", path)
+    spec = importlib.util.spec_from_file_location("hard_shapes", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     written = {}

@@ -67,14 +67,19 @@ def _spline_points(spline, run: np.ndarray, condition: str | None) -> np.ndarray
 class DesignBoundary:
     """The boundary loops of a surface, parametrised by arc length."""
 
-    def __init__(self, surface: Surface):
-        loops = [smooth_loop(surface.vertices[loop]) for loop in surface.boundary_loops]
+    def __init__(self, surface: Surface | None = None, loops: list[np.ndarray] | None = None):
+        """The surface's boundary loops as smooth curves, or the given closed polylines (any
+        dimension, taken as they are)."""
+        if surface is not None:
+            loops = [smooth_loop(surface.vertices[loop]) for loop in surface.boundary_loops]
+        loops = loops or []
+        self.dim = loops[0].shape[1] if loops else 3
         self.loops = loops
-        self.starts = np.concatenate(loops) if loops else np.zeros((0, 3))
+        self.starts = np.concatenate(loops) if loops else np.zeros((0, self.dim))
         self.ends = (
             np.concatenate([np.roll(loop, -1, axis=0) for loop in loops])
             if loops
-            else np.zeros((0, 3))
+            else np.zeros((0, self.dim))
         )
         self.loop_of_segment = (
             np.concatenate([np.full(len(loop), i) for i, loop in enumerate(loops)]).astype(int)
@@ -95,7 +100,7 @@ class DesignBoundary:
     def locate(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Closest boundary point of each point: ``(feet, distances, loop, s)`` with ``s`` the
         arc length along its loop from the loop's first vertex."""
-        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        points = np.asarray(points, dtype=float).reshape(-1, self.dim)
         direction = self.ends - self.starts
         length2 = np.maximum(np.einsum("sd,sd->s", direction, direction), 1e-300)
         feet = np.zeros_like(points)
@@ -134,11 +139,11 @@ class DesignBoundary:
         forward = (s[1] - s[0]) % total
         step = forward if forward <= total - forward else forward - total
         targets = s[0] + np.linspace(0.0, step, count)
-        points = self._at(loop[0], targets % total)
+        points = self.at(loop[0], targets % total)
         points[0], points[-1] = start, end
         return points
 
-    def _at(self, loop: int, s: np.ndarray) -> np.ndarray:
+    def at(self, loop: int, s: np.ndarray) -> np.ndarray:
         """Points of one loop at arc lengths ``s`` (in [0, loop length))."""
         first, last = self.first_segment[loop], self.first_segment[loop + 1]
         seg_s = self.segment_start_s[first:last]

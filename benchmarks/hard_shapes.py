@@ -1,0 +1,157 @@
+"""Hard test shapes for the panel layout, each harder than the examples in another way (metres).
+
+    .venv/bin/python benchmarks/hard_shapes.py [FOLDER]   # writes <name>.obj for every shape
+
+- ``canopy4``: a four-support canopy, rounded square 12 m (corner radius 2 m), four openings of
+  1.1-1.6 m at uneven places: many small openings per panel width (the issue's first shape);
+- ``dome_oculus``: a spherical cap 12 m across, 4 m rise, a 2.4 m oculus at the top: slopes up
+  to 67°, a projection that stretches 2.6 x radially;
+- ``hypar_hole``: a hyperbolic paraboloid 8 x 6 m (corners ±1.2 m) with one off-centre, rotated
+  elliptical opening: negative curvature and a sharp-cornered outline;
+- ``funnel``: two lobes (8 m and 5 m) joined by a 3 m neck: strips run from wide into narrow;
+- ``wavy_strip``: a 24 m strip 2.5-5 m wide on a sinusoidal centre line, wavy in height: only
+  two to five panels across, everything near a boundary;
+- ``quarry``: a plaza with 100° corners and a concave notch, two openings 0.8 m apart and one
+  0.6 m from the outline: gaps narrower than a panel.
+
+Generated with the planar-domain helpers of ``examples/shapes.py`` (boundary resampled, a
+triangular lattice inside, Delaunay culled to the domain, lifted by a height function), so the
+meshes are deterministic.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+from shapely.geometry import Point, Polygon, box
+from shapely.ops import unary_union
+
+_spec = importlib.util.spec_from_file_location(
+    "example_shapes", Path(__file__).resolve().parents[1] / "examples" / "shapes.py"
+)
+_shapes = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_shapes)
+
+#: triangle size of the generated meshes, m
+SPACING = 0.2
+
+
+def _ring(geometry) -> np.ndarray:
+    return np.asarray(geometry.coords)[:-1, :2]
+
+
+def _mesh(polygon: Polygon, height, spacing: float = SPACING) -> tuple[np.ndarray, np.ndarray]:
+    """A planar domain (shapely polygon with holes) triangulated and lifted by ``height``."""
+    outer = _shapes.resample_closed(_ring(polygon.exterior), spacing)
+    holes = [_shapes.resample_closed(_ring(hole), 0.8 * spacing) for hole in polygon.interiors]
+    if Polygon(outer).exterior.is_ccw is False:
+        outer = outer[::-1]
+    low, high = np.min(outer, axis=0), np.max(outer, axis=0)
+    lattice = _shapes.triangular_lattice(low, high, spacing)
+    inside = _shapes.points_in_polygon(lattice, outer)
+    for hole in holes:
+        inside &= ~_shapes.points_in_polygon(lattice, hole)
+    interior = _shapes._keep_clear(lattice[inside], [outer, *holes], 0.6 * spacing)
+    points, triangles = _shapes.triangulate_domain(outer, holes, interior)
+    return np.column_stack([points, height(points[:, 0], points[:, 1])]), triangles
+
+
+def _rounded_square(half: float, radius: float) -> Polygon:
+    return box(-half + radius, -half + radius, half - radius, half - radius).buffer(
+        radius, quad_segs=32
+    )
+
+
+def canopy4_mesh() -> tuple[np.ndarray, np.ndarray]:
+    openings = [((3.3, 3.1), 0.55), ((-3.1, 3.3), 0.65), ((-3.3, -3.0), 0.75), ((3.0, -3.4), 0.8)]
+    domain = _rounded_square(6.0, 2.0)
+    for centre, radius in openings:
+        domain = domain.difference(Point(centre).buffer(radius, quad_segs=16))
+    return _mesh(domain, lambda x, y: 1.5 * (1 - (x**2 + y**2) / 72.0))
+
+
+def dome_oculus_mesh() -> tuple[np.ndarray, np.ndarray]:
+    rise, base = 4.0, 6.0
+    sphere = (base**2 + rise**2) / (2 * rise)
+    # plan radius of the oculus rim: 1.2 m measured along the surface from the crown
+    rim = sphere * math.sin(1.2 / sphere)
+    domain = Point(0, 0).buffer(base, quad_segs=64).difference(Point(0, 0).buffer(rim, 32))
+    return _mesh(
+        domain,
+        lambda x, y: np.sqrt(np.maximum(sphere**2 - x**2 - y**2, 0.0)) - (sphere - rise),
+        spacing=0.12,
+    )
+
+
+def hypar_hole_mesh() -> tuple[np.ndarray, np.ndarray]:
+    t = np.linspace(0, 2 * np.pi, 64, endpoint=False)
+    angle = math.radians(30)
+    ellipse = np.column_stack([0.8 * np.cos(t), 0.5 * np.sin(t)])
+    rotation = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
+    hole = ellipse @ rotation.T + np.array([1.8, -0.8])
+    domain = box(-4, -3, 4, 3).difference(Polygon(hole))
+    return _mesh(domain, lambda x, y: 0.1 * x * y)
+
+
+def funnel_mesh() -> tuple[np.ndarray, np.ndarray]:
+    lobes = unary_union(
+        [Point(-3.0, 0).buffer(4.0, quad_segs=48), Point(5.0, 0).buffer(2.5, quad_segs=48)]
+    )
+    neck = box(-1.0, -1.5, 4.0, 1.5)
+    domain = unary_union([lobes, neck]).buffer(0.6, quad_segs=16).buffer(-0.6, quad_segs=16)
+    return _mesh(domain, lambda x, y: 1.5 * np.exp(-((x + 1) ** 2 + y**2) / 40.0))
+
+
+def wavy_strip_mesh() -> tuple[np.ndarray, np.ndarray]:
+    x = np.linspace(-12, 12, 241)
+    centre = 2.0 * np.sin(2 * np.pi * x / 12)
+    slope = np.gradient(centre, x)
+    normal = np.column_stack([-slope, np.ones_like(x)]) / np.sqrt(1 + slope**2)[:, None]
+    half = 0.5 * (3.75 + 1.25 * np.cos(2 * np.pi * x / 24))
+    line = np.column_stack([x, centre])
+    left, right = line + half[:, None] * normal, line - half[:, None] * normal
+    domain = Polygon(np.vstack([right, left[::-1]])).buffer(0)
+    return _mesh(domain, lambda x, y: 0.3 + 1.0 * np.sin(2 * np.pi * x / 10) * np.cos(y / 6))
+
+
+def quarry_mesh() -> tuple[np.ndarray, np.ndarray]:
+    outline = Polygon(
+        [(-8, -6), (-1, -6), (0.5, -4.2), (2, -6), (8, -5), (7, 6), (-2, 6), (-8, 3.5)]
+    )
+    holes = [Point(-3.0, 0.5).buffer(1.2, 24), Point(-0.2, 0.5).buffer(0.8, 24)]
+    holes.append(Point(5.0, 4.2).buffer(0.9, 24))  # 0.6 m from the upper edge (y = 6 - ...)
+    domain = outline
+    for hole in holes:
+        domain = domain.difference(hole)
+    return _mesh(domain, lambda x, y: 0.8 + 0.012 * (x**2 - y**2))
+
+
+SHAPES = {
+    "canopy4": canopy4_mesh,
+    "dome_oculus": dome_oculus_mesh,
+    "hypar_hole": hypar_hole_mesh,
+    "funnel": funnel_mesh,
+    "wavy_strip": wavy_strip_mesh,
+    "quarry": quarry_mesh,
+}
+
+
+def write_obj(path: str | Path, vertices: np.ndarray, faces: np.ndarray) -> Path:
+    return _shapes.write_obj(path, vertices, faces, f"fabpanel hard shape {Path(path).stem}, m")
+
+
+def main() -> None:
+    folder = Path(sys.argv[1] if len(sys.argv) > 1 else ".")
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, make in SHAPES.items():
+        vertices, faces = make()
+        write_obj(folder / f"{name}.obj", vertices, faces)
+        print(f"{name}: {len(faces)} triangles", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()
