@@ -40,6 +40,7 @@ from .skeleton_input import (
     turning_angles,
     validate_loops,
 )
+from .skeleton_patches import build_layout, smallest_member_labels
 
 log = logging.getLogger(__name__)
 
@@ -52,26 +53,6 @@ CLUSTER_SHARE = 1e-3
 SIGNIFICANT_TURN = 60.0
 #: a skeleton branch is cut every this many degrees of turning (flipped-patch correction)
 MAX_TURN = 90.0
-
-
-class _UF:
-    def __init__(self, n):
-        self.p = list(range(n))
-
-    def find(self, a):
-        p = self.p
-        while p[a] != a:
-            p[a] = p[p[a]]
-            a = p[a]
-        return a
-
-    def union(self, a, b):
-        a, b = self.find(a), self.find(b)
-        if a != b:
-            if a < b:
-                self.p[b] = a
-            else:
-                self.p[a] = b
 
 
 def _circumcentres(P, tris):
@@ -94,87 +75,101 @@ def _polyline_area(pl):
 class _Skeleton:
     """Clusters of Delaunay triangles (skeleton nodes) with their polygons and chords."""
 
-    def __init__(self, P, tris, bnd_keys, spacing):
-        self.P = P
-        n = len(P)
-        self.n = n
-        T = len(tris)
-        edge_tris = defaultdict(list)
-        for t in range(T):
-            for i in range(3):
-                a, b = int(tris[t, i]), int(tris[t, (i + 1) % 3])
-                edge_tris[min(a, b) * n + max(a, b)].append(t)
-        for key, ts in edge_tris.items():
-            if key in bnd_keys:
-                if len(ts) != 1:
-                    raise GeometryError(
-                        "boundary samples are not triangulated consistently near "
-                        f"({P[key // n][0]:.6g}, {P[key // n][1]:.6g}); "
-                        "pass a smaller sample_spacing"
-                    )
-            elif len(ts) != 2:
-                a = key // n
-                raise GeometryError(
-                    "the triangulation leaks across the boundary near "
-                    f"({P[a][0]:.6g}, {P[a][1]:.6g}); pass a smaller sample_spacing"
-                )
-        for key in bnd_keys:
-            if key not in edge_tris:
-                raise GeometryError(
-                    "a boundary segment is not covered by the triangulation near "
-                    f"({P[key // n][0]:.6g}, {P[key // n][1]:.6g})"
-                )
-        cc = _circumcentres(P, tris)
-        tol = CLUSTER_SHARE * spacing
-        uf = _UF(T)
-        for key in sorted(edge_tris):
-            ts = edge_tris[key]
-            if len(ts) == 2 and np.linalg.norm(cc[ts[0]] - cc[ts[1]]) < tol:
-                uf.union(ts[0], ts[1])
-        roots = [uf.find(t) for t in range(T)]
-        # a cluster whose outline is not one simple cycle is broken back into triangles
-        members = defaultdict(list)
-        for t, r in enumerate(roots):
-            members[r].append(t)
-        for r, ts in members.items():
-            if len(ts) > 1 and self._outline(tris, ts, roots, edge_tris) is None:
-                for t in ts:
-                    roots[t] = t
-        # renumber clusters by their smallest triangle id (deterministic)
-        rid = {}
-        for t in range(T):
-            if roots[t] not in rid:
-                rid[roots[t]] = len(rid)
-        cl = np.array([rid[roots[t]] for t in range(T)])
-        self.ncl = len(rid)
-        groups = defaultdict(list)
-        for t in range(T):
-            groups[cl[t]].append(t)
+    def __init__(self, points, tris, bnd_keys, spacing):
+        self.P = points
+        self.n = sample_count = len(points)
+        edge_tris = self._edge_triangles(points, tris, bnd_keys)
+        centres = _circumcentres(points, tris)
+        cluster_of = self._cluster_triangles(tris, edge_tris, centres, CLUSTER_SHARE * spacing)
+        self.ncl = len(set(cluster_of.tolist()))
+        triangles_of = defaultdict(list)
+        for triangle, cluster in enumerate(cluster_of):
+            triangles_of[cluster].append(triangle)
         self.poly = []  # CCW vertex ids of every cluster
         self.eside = []  # per polygon edge i (poly[i] -> poly[i+1]): -1 boundary or chord key
         self.pos = np.zeros((self.ncl, 2))
         self.chord = {}  # chord key -> (cluster, cluster)
         self.bnd_owner = {}  # boundary key -> (cluster, polygon edge index)
-        roots_cl = list(cl)
-        for c in range(self.ncl):
-            ts = groups[c]
-            verts = self._outline(tris, ts, roots_cl, edge_tris)
-            k = len(verts)
+        for cluster in range(self.ncl):
+            triangles = triangles_of[cluster]
+            verts = self._outline(tris, triangles, list(cluster_of), edge_tris)
+            corner_count = len(verts)
             sides = []
-            for i in range(k):
-                a, b = verts[i], verts[(i + 1) % k]
-                key = min(a, b) * n + max(a, b)
+            for side in range(corner_count):
+                start, end = verts[side], verts[(side + 1) % corner_count]
+                key = min(start, end) * sample_count + max(start, end)
                 if key in bnd_keys:
                     sides.append(-1)
-                    self.bnd_owner[key] = (c, i)
+                    self.bnd_owner[key] = (cluster, side)
                 else:
                     sides.append(key)
                     self.chord.setdefault(key, [])
-                    self.chord[key].append(c)
+                    self.chord[key].append(cluster)
             self.poly.append(verts)
             self.eside.append(sides)
-            self.pos[c] = self._node_position(verts, cc[ts].mean(0))
-        self.ports = [[i for i, s in enumerate(self.eside[c]) if s != -1] for c in range(self.ncl)]
+            self.pos[cluster] = self._node_position(verts, centres[triangles].mean(0))
+        # polygon edge indices of the chords of every cluster
+        self.ports = [
+            [side for side, chord in enumerate(sides) if chord != -1] for sides in self.eside
+        ]
+
+    @staticmethod
+    def _edge_triangles(points, tris, bnd_keys):
+        """Triangles on every edge (key ``min * n + max``); checks that every boundary segment
+        has one triangle and every other edge two."""
+        sample_count = len(points)
+        edge_tris = defaultdict(list)
+        for triangle in range(len(tris)):
+            for corner in range(3):
+                start, end = int(tris[triangle, corner]), int(tris[triangle, (corner + 1) % 3])
+                edge_tris[min(start, end) * sample_count + max(start, end)].append(triangle)
+        for key, triangles in edge_tris.items():
+            first = points[key // sample_count]
+            if key in bnd_keys:
+                if len(triangles) != 1:
+                    raise GeometryError(
+                        "boundary samples are not triangulated consistently near "
+                        f"({first[0]:.6g}, {first[1]:.6g}); pass a smaller sample_spacing"
+                    )
+            elif len(triangles) != 2:
+                raise GeometryError(
+                    "the triangulation leaks across the boundary near "
+                    f"({first[0]:.6g}, {first[1]:.6g}); pass a smaller sample_spacing"
+                )
+        for key in bnd_keys:
+            if key not in edge_tris:
+                first = points[key // sample_count]
+                raise GeometryError(
+                    "a boundary segment is not covered by the triangulation near "
+                    f"({first[0]:.6g}, {first[1]:.6g})"
+                )
+        return edge_tris
+
+    @classmethod
+    def _cluster_triangles(cls, tris, edge_tris, centres, tolerance) -> np.ndarray:
+        """Cluster id of every triangle: neighbours with circumcentres closer than ``tolerance``
+        are one cluster, numbered by its smallest triangle id."""
+        close_pairs = []
+        for key in sorted(edge_tris):
+            triangles = edge_tris[key]
+            if len(triangles) == 2:
+                first, second = triangles
+                if np.linalg.norm(centres[first] - centres[second]) < tolerance:
+                    close_pairs.append((first, second))
+        roots = smallest_member_labels(len(tris), close_pairs)
+        # a cluster whose outline is not one simple cycle is broken back into triangles
+        members = defaultdict(list)
+        for triangle, root in enumerate(roots):
+            members[root].append(triangle)
+        for triangles in members.values():
+            if len(triangles) > 1 and cls._outline(tris, triangles, roots, edge_tris) is None:
+                for triangle in triangles:
+                    roots[triangle] = triangle
+        # renumber clusters by their smallest triangle id (deterministic)
+        cluster_id: dict[int, int] = {}
+        for root in roots:
+            cluster_id.setdefault(root, len(cluster_id))
+        return np.array([cluster_id[root] for root in roots])
 
     @staticmethod
     def _outline(tris, ts, roots, edge_tris):
@@ -626,6 +621,4 @@ class _Decomposition:
 
     # -- patches and layout -------------------------------------------------------------------
     def layout(self, bnd_dir, point_features, diag):
-        from .skeleton_patches import build_layout
-
         return build_layout(self, bnd_dir, point_features, diag)
