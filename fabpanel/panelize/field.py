@@ -208,6 +208,8 @@ def _gmsh_quads(
         info = {
             "size_factor": round(float(out["factor"]), 4),
             "flat_score": round(float(out["score"]), 4),
+            "gmsh_meshes": int(out["meshes"]),
+            "gmsh_seconds": round(float(out["seconds"]), 2),
         }
         return out["nodes"], out["quads"].astype(np.int64), out["on_curve"], info
 
