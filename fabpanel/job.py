@@ -258,6 +258,10 @@ class PanelizeSection(_Section):
     #: a panel narrower than this (its narrower mid-line) is an error-level issue: its ribs and
     #: stiffeners would meet. Default: 0.3 x panel_size
     min_panel_width: PositiveLength | None = None
+    #: field method: ``boundary`` lets gmsh align the panels with the boundary; ``curvature``
+    #: aligns them with the principal curvature directions where the surface is clearly
+    #: anisotropic, blended into the boundary-aligned field elsewhere
+    align: Literal["boundary", "curvature"] = "boundary"
 
     def _check(self, w: _Written) -> None:
         if self.method == "layout" and not self.layout:

@@ -72,6 +72,12 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     )
     loops3d = [surface.vertices[loop] for loop in surface.boundary_loops]
     metrics, found = layout_metrics(layout, query, settings.panel_size, job.cutting, loops3d)
+    from .cross_field import curvature_alignment
+
+    info["curvature_alignment"] = curvature_alignment(
+        vertices, layout.edges, surface.vertices, surface.faces, query.mesh
+    )
+    info["align"] = settings.align
     metrics["field"] = info
     log.info("field panelisation: %d panels", len(quads))
     return PanelLayout(
@@ -165,6 +171,13 @@ def _gmsh_quads(
     """Run :mod:`.gmsh_quads` on the flat domain in a child process; its nodes and quads."""
     from ..parallel import child_preexec
 
+    cross: dict = {}
+    if job.panelize.align == "curvature":
+        from .cross_field import curvature_cross_field
+
+        cross["cross"], _ = curvature_cross_field(
+            surface.vertices, surface.faces, flat, surface.boundary_loops
+        )
     loops = list(surface.boundary_loops)
     starts = np.cumsum([0, *[len(loop) for loop in loops[:-1]]])
     with tempfile.TemporaryDirectory(prefix="fabpanel-gmsh-") as folder:
@@ -180,6 +193,7 @@ def _gmsh_quads(
             points=points,
             h=float(job.panelize.panel_size),
             area=surface.area,
+            **cross,
         )
         script = Path(__file__).with_name("gmsh_quads.py")
         env = {**os.environ, "OMP_NUM_THREADS": "1"}

@@ -103,12 +103,32 @@ def _size_view(flat: np.ndarray, faces: np.ndarray, values: np.ndarray) -> int:
     return view
 
 
+def _guiding_view(
+    flat: np.ndarray, faces: np.ndarray, values: np.ndarray, angle: np.ndarray
+) -> int:
+    """A list-based vector view ("VT"): one branch of each triangle's cross, as long as the
+    size field; gmsh then packs its quads along it instead of its own boundary-aligned field
+    (layout.md §4.3)."""
+    tri = flat[faces]
+    size = values[faces]  # (m, 3)
+    vx = size * np.cos(angle)[:, None]
+    vy = size * np.sin(angle)[:, None]
+    vectors = np.stack([vx, vy, np.zeros_like(vx)], axis=2).reshape(len(faces), 9)
+    data = np.concatenate([tri[:, :, 0], tri[:, :, 1], np.zeros((len(faces), 3)), vectors], axis=1)
+    view = gmsh.view.add("guiding")
+    gmsh.view.addListData(view, "VT", len(faces), data.ravel().tolist())
+    return view
+
+
 def _mesh(data, factor: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     gmsh.model.mesh.clear()
     for view in gmsh.view.getTags():
         gmsh.view.remove(view)
     size = float(data["h"]) / factor * data["scale"]
-    view = _size_view(data["flat"], data["faces"], size)
+    if "cross" in data:
+        view = _guiding_view(data["flat"], data["faces"], size, data["cross"])
+    else:
+        view = _size_view(data["flat"], data["faces"], size)
     field = gmsh.model.mesh.field.add("PostView")
     gmsh.model.mesh.field.setNumber(field, "ViewTag", view)
     gmsh.model.mesh.field.setAsBackgroundMesh(field)
