@@ -115,7 +115,7 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
                 f'"grid" for four-sided parts'
             )
         vertices, _ = lift(vertices2d, surface, frame, query)
-        oversize = _oversize_panels(vertices, quads, job)
+        oversize = oversize_panels(vertices, quads, job)
         if not oversize.any():
             break
         if settings.density == "catmull-clark":
@@ -146,7 +146,7 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
     )
 
 
-def _oversize_panels(vertices: np.ndarray, quads: np.ndarray, job: Job) -> np.ndarray:
+def oversize_panels(vertices: np.ndarray, quads: np.ndarray, job: Job) -> np.ndarray:
     cutting = job.cutting
     usable = np.sort(
         [

@@ -11,7 +11,9 @@
    ``[panelize] corner_angle``); ``singular_points`` are embedded as mesh vertices. It runs in a
    child process (:mod:`.gmsh_quads`), which also calibrates the size (layout.md §2.3);
 3. the quads are mapped back onto the surface through the flattening's triangles, and the
-   boundary vertices are put on the design boundary exactly.
+   boundary vertices are put on the design boundary exactly;
+4. while a panel does not fit the usable plate, the whole layout is made again with panels
+   12 % smaller (up to three rounds), as the skeleton method divides its strips again.
 
 Any count of openings works; the surface must be one piece with a boundary (a closed surface
 has no loop to flatten from) of disc-like topology with holes.
@@ -35,11 +37,16 @@ from ..job import Job
 from ..surface import SurfaceQuery
 from ..units import length_scale
 from .boundary import DesignBoundary
+from .decompose import oversize_panels
 from .lift import FlatMesh
 from .quality import layout_metrics
 from .skeleton_input import turning_angles
 
 log = logging.getLogger(__name__)
+
+#: rounds of smaller panels while some panel does not fit the usable plate, and the factor
+PLATE_ROUNDS = 3
+PLATE_SHRINK = 0.88
 
 #: a gmsh run longer than this is stopped (it never takes more than seconds on 5000 panels)
 GMSH_TIMEOUT = 300.0
@@ -57,12 +64,17 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     flat, scale = conformal_flattening(surface.vertices, surface.faces, surface.boundary_loops[0])
     flat_mesh = FlatMesh(flat, surface.faces, surface.vertices)
     points = _singular_points(surface, job, query, flat_mesh)
-    nodes, quads, on_curve, info = _gmsh_quads(surface, flat, scale, points, job)
-    nodes, info["relaxation"] = _relax(nodes, quads, on_curve, points, flat_mesh, scale, job)
-    vertices = flat_mesh.interpolate(nodes)
-    boundary = DesignBoundary(surface)
-    vertices[on_curve] = boundary.closest(vertices[on_curve])
-    vertices[~on_curve], _, _ = query.closest(vertices[~on_curve])
+    size = settings.panel_size
+    for plate_round in range(PLATE_ROUNDS + 1):
+        nodes, quads, on_curve, info = _gmsh_quads(surface, flat, scale, points, job, size)
+        nodes, info["relaxation"] = _relax(nodes, quads, on_curve, points, flat_mesh, scale, size)
+        vertices = flat_mesh.interpolate(nodes)
+        vertices[on_curve] = DesignBoundary(surface).closest(vertices[on_curve])
+        vertices[~on_curve], _, _ = query.closest(vertices[~on_curve])
+        if plate_round == PLATE_ROUNDS or not oversize_panels(vertices, quads, job).any():
+            break
+        size *= PLATE_SHRINK  # some panels miss the plate: smaller panels everywhere
+    info.update(plate_rounds=plate_round, size_used_mm=round(float(size), 1))
     quads = _orient_outwards(vertices, quads, query)
     layout = PanelLayout(
         vertices=vertices,
@@ -97,7 +109,7 @@ def _relax(
     points: np.ndarray,
     flat_mesh: FlatMesh,
     scale: np.ndarray,
-    job: Job,
+    size: float,
 ) -> tuple[np.ndarray, dict]:
     """Interior nodes moved to right-angled panels of the asked size (fold-free smoothing,
     :mod:`.untangle`, with each quad's reference size the panel size times the flattening's
@@ -112,7 +124,7 @@ def _relax(
     movable = ~on_curve
     for point in points:  # the embedded singular points stay where they were asked
         movable[int(np.argmin(np.linalg.norm(nodes - point, axis=1)))] = False
-    relaxed, info = untangle(nodes, quads, movable, reference=job.panelize.panel_size * local)
+    relaxed, info = untangle(nodes, quads, movable, reference=size * local)
     if info["folded_after"] > info["folded_before"]:
         return nodes, {**info, "kept": "gmsh"}
     return relaxed, info
@@ -166,7 +178,12 @@ def _corner_flags(surface: Surface, flat: np.ndarray, corner_angle: float) -> np
 
 
 def _gmsh_quads(
-    surface: Surface, flat: np.ndarray, scale: np.ndarray, points: np.ndarray, job: Job
+    surface: Surface,
+    flat: np.ndarray,
+    scale: np.ndarray,
+    points: np.ndarray,
+    job: Job,
+    size: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """Run :mod:`.gmsh_quads` on the flat domain in a child process; its nodes and quads."""
     from ..parallel import child_preexec
@@ -191,7 +208,7 @@ def _gmsh_quads(
             loop_starts=starts,
             corners=_corner_flags(surface, flat, job.panelize.corner_angle),
             points=points,
-            h=float(job.panelize.panel_size),
+            h=float(size),
             area=surface.area,
             **cross,
         )
