@@ -26,6 +26,7 @@ import os
 import subprocess
 import sys
 import tempfile
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +39,7 @@ from ..surface import SurfaceQuery
 from ..units import length_scale
 from .boundary import DesignBoundary
 from .decompose import oversize_panels
-from .lift import FlatMesh
+from .lift import FlatMesh, barycentric_weights
 from .quality import layout_metrics
 from .skeleton_input import turning_angles
 
@@ -92,14 +93,7 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     info["align"] = settings.align
     metrics["field"] = info
     log.info("field panelisation: %d panels", len(quads))
-    return PanelLayout(
-        vertices=vertices,
-        quads=quads,
-        panel_ids=layout.panel_ids,
-        method="field",
-        metrics=metrics,
-        issues=found,
-    )
+    return replace(layout, metrics=metrics, issues=found)
 
 
 def _relax(
@@ -134,8 +128,7 @@ def _interpolate_scale(flat_mesh: FlatMesh, scale: np.ndarray, points: np.ndarra
     """The flattening's scale at flat points (barycentric in the nearest flat triangle)."""
     p = np.column_stack([points, np.zeros(len(points))])
     foot, _, tri = flat_mesh.locator.nearest(p)
-    corners = np.column_stack([flat_mesh.flat, np.zeros(len(flat_mesh.flat))])[flat_mesh.faces[tri]]
-    weights = _barycentric(foot, corners)
+    weights = barycentric_weights(foot[:, :2], flat_mesh.flat[flat_mesh.faces[tri]])
     return np.einsum("pk,pk->p", weights, scale[flat_mesh.faces[tri]])
 
 
@@ -150,21 +143,8 @@ def _singular_points(
     on_surface, _, triangles = query.mesh.nearest(points)
     faces = surface.faces[triangles]
     corners = surface.vertices[faces]
-    weights = _barycentric(on_surface, corners)
+    weights = barycentric_weights(on_surface, corners)
     return np.einsum("pk,pkc->pc", weights, flat_mesh.flat[faces])
-
-
-def _barycentric(points: np.ndarray, corners: np.ndarray) -> np.ndarray:
-    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
-    v0, v1, v2 = b - a, c - a, points - a
-    d00, d01 = np.einsum("ij,ij->i", v0, v0), np.einsum("ij,ij->i", v0, v1)
-    d11, d20 = np.einsum("ij,ij->i", v1, v1), np.einsum("ij,ij->i", v2, v0)
-    d21 = np.einsum("ij,ij->i", v2, v1)
-    denom = np.maximum(d00 * d11 - d01 * d01, 1e-300)
-    v = (d11 * d20 - d01 * d21) / denom
-    w = (d00 * d21 - d01 * d20) / denom
-    weights = np.clip(np.stack([1.0 - v - w, v, w], axis=1), 0.0, 1.0)
-    return weights / weights.sum(axis=1, keepdims=True)
 
 
 def _corner_flags(surface: Surface, flat: np.ndarray, corner_angle: float) -> np.ndarray:

@@ -99,23 +99,28 @@ class FlatMesh:
         """(p, 3) float: mesh points at 2D points (points outside: the nearest flat triangle)."""
         p = np.column_stack([points2d, np.zeros(len(points2d))])
         foot, _, tri = self.locator.nearest(p)
-        corners = self.flat[self.faces[tri]]  # (p, 3, 2)
-        a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
-        v0, v1, v2 = b - a, c - a, foot[:, :2] - a
-        d00 = np.einsum("ij,ij->i", v0, v0)
-        d01 = np.einsum("ij,ij->i", v0, v1)
-        d11 = np.einsum("ij,ij->i", v1, v1)
-        d20 = np.einsum("ij,ij->i", v2, v0)
-        d21 = np.einsum("ij,ij->i", v2, v1)
-        denom = d00 * d11 - d01 * d01
-        ok = np.abs(denom) > 1e-18 * np.maximum(d00 * d11, 1e-300)
-        safe = np.where(ok, denom, 1.0)
-        v = np.where(ok, (d11 * d20 - d01 * d21) / safe, 0.0)
-        w = np.where(ok, (d00 * d21 - d01 * d20) / safe, 0.0)
-        u = 1.0 - v - w
-        bary = np.clip(np.stack([u, v, w], axis=1), 0.0, 1.0)
-        bary /= bary.sum(axis=1, keepdims=True)
+        bary = barycentric_weights(foot[:, :2], self.flat[self.faces[tri]])
         return np.einsum("pk,pkc->pc", bary, self.vertices[self.faces[tri]])
+
+
+def barycentric_weights(points: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """(p, 3) barycentric weights of points in their triangles ``corners (p, 3, d)``, any
+    dimension, clipped to the triangle (a point outside takes the nearest edge's mix);
+    degenerate triangles give their first corner."""
+    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    v0, v1, v2 = b - a, c - a, points - a
+    d00 = np.einsum("ij,ij->i", v0, v0)
+    d01 = np.einsum("ij,ij->i", v0, v1)
+    d11 = np.einsum("ij,ij->i", v1, v1)
+    d20 = np.einsum("ij,ij->i", v2, v0)
+    d21 = np.einsum("ij,ij->i", v2, v1)
+    denom = d00 * d11 - d01 * d01
+    ok = np.abs(denom) > 1e-18 * np.maximum(d00 * d11, 1e-300)
+    safe = np.where(ok, denom, 1.0)
+    v = np.where(ok, (d11 * d20 - d01 * d21) / safe, 0.0)
+    w = np.where(ok, (d00 * d21 - d01 * d20) / safe, 0.0)
+    bary = np.clip(np.stack([1.0 - v - w, v, w], axis=1), 0.0, 1.0)
+    return bary / bary.sum(axis=1, keepdims=True)
 
 
 class _Projector(FlatMesh):
