@@ -42,12 +42,16 @@ from .decompose import oversize_panels
 from .lift import FlatMesh, barycentric_weights
 from .quality import layout_metrics
 from .skeleton_input import turning_angles
+from .slide import BoundaryTrack, SlidingNodes
 
 log = logging.getLogger(__name__)
 
 #: rounds of smaller panels while some panel does not fit the usable plate, and the factor
 PLATE_ROUNDS = 3
 PLATE_SHRINK = 0.88
+
+#: a boundary node this close to a corner of the outline (x the panel size) is that corner
+CORNER_TOLERANCE = 1e-3
 
 #: a gmsh run longer than this is stopped (it never takes more than seconds on 5000 panels)
 GMSH_TIMEOUT = 300.0
@@ -66,13 +70,23 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     flat_mesh = FlatMesh(flat, surface.faces, surface.vertices)
     points = _singular_points(surface, job, query, flat_mesh)
     size = settings.panel_size
+    track = _boundary_track(surface, flat, settings.corner_angle)
+    boundary = DesignBoundary(surface)
     for plate_round in range(PLATE_ROUNDS + 1):
         nodes, quads, on_curve, info = _gmsh_quads(surface, flat, scale, points, job, size)
-        nodes, info["relaxation"] = _relax(nodes, quads, on_curve, points, flat_mesh, scale, size)
-        vertices = flat_mesh.interpolate(nodes)
-        vertices[on_curve] = DesignBoundary(surface).closest(vertices[on_curve])
-        vertices[~on_curve], _, _ = query.closest(vertices[~on_curve])
-        if plate_round == PLATE_ROUNDS or not oversize_panels(vertices, quads, job).any():
+        # sliding boundary nodes square the boundary panels but can lengthen a boundary
+        # side; where that takes a panel off the plate, the nodes stay where gmsh put them
+        for slide in (track, None):
+            relaxed, info["relaxation"] = _relax(
+                nodes, quads, on_curve, points, flat_mesh, scale, size, slide
+            )
+            vertices = flat_mesh.interpolate(relaxed)
+            vertices[on_curve] = boundary.closest(vertices[on_curve])
+            vertices[~on_curve], _, _ = query.closest(vertices[~on_curve])
+            fits = not oversize_panels(vertices, quads, job).any()
+            if fits:
+                break
+        if fits or plate_round == PLATE_ROUNDS:
             break
         size *= PLATE_SHRINK  # some panels miss the plate: smaller panels everywhere
     info.update(plate_rounds=plate_round, size_used_mm=round(float(size), 1))
@@ -104,21 +118,29 @@ def _relax(
     flat_mesh: FlatMesh,
     scale: np.ndarray,
     size: float,
+    track: BoundaryTrack | None,
 ) -> tuple[np.ndarray, dict]:
-    """Interior nodes moved to right-angled panels of the asked size (fold-free smoothing,
+    """Nodes moved to right-angled panels of the asked size (fold-free smoothing,
     :mod:`.untangle`, with each quad's reference size the panel size times the flattening's
-    scale there). gmsh's own cavity remeshing would do similar work but runs against a time
-    budget, so its result changes from run to run; this does not."""
+    scale there); boundary nodes slide along the boundary (:mod:`.slide`), corners of the
+    outline and the singular points stay. gmsh's own cavity remeshing would do similar work
+    but runs against a time budget, so its result changes from run to run; this does not."""
     from .untangle import corner_determinants, untangle
 
     if corner_determinants(nodes, quads).sum() < 0:
         quads = quads[:, [0, 3, 2, 1]]  # counter-clockwise in the flat domain
     centres = nodes[quads].mean(axis=1)
     local = _interpolate_scale(flat_mesh, scale, centres)
-    movable = ~on_curve
+    fixed = np.zeros(len(nodes), dtype=bool)
     for point in points:  # the embedded singular points stay where they were asked
-        movable[int(np.argmin(np.linalg.norm(nodes - point, axis=1)))] = False
-    relaxed, info = untangle(nodes, quads, movable, reference=size * local)
+        fixed[int(np.argmin(np.linalg.norm(nodes - point, axis=1)))] = True
+    sliding = None
+    if track is not None:
+        candidates = np.flatnonzero(on_curve & ~fixed)
+        sliding = SlidingNodes.on_track(track, nodes, candidates, CORNER_TOLERANCE * size)
+    relaxed, info = untangle(
+        nodes, quads, ~on_curve & ~fixed, reference=size * local, sliding=sliding
+    )
     if info["folded_after"] > info["folded_before"]:
         return nodes, {**info, "kept": "gmsh"}
     return relaxed, info
@@ -145,6 +167,15 @@ def _singular_points(
     corners = surface.vertices[faces]
     weights = barycentric_weights(on_surface, corners)
     return np.einsum("pk,pkc->pc", weights, flat_mesh.flat[faces])
+
+
+def _boundary_track(surface: Surface, flat: np.ndarray, corner_angle: float) -> BoundaryTrack:
+    """The flat boundary loops, kinked at the outline's corners, for the sliding nodes."""
+    loops = [flat[loop] for loop in surface.boundary_loops]
+    flags = np.split(
+        _corner_flags(surface, flat, corner_angle), np.cumsum([len(x) for x in loops])[:-1]
+    )
+    return BoundaryTrack.from_loops(loops, flags)
 
 
 def _corner_flags(surface: Surface, flat: np.ndarray, corner_angle: float) -> np.ndarray:

@@ -29,6 +29,8 @@ import logging
 import numpy as np
 from scipy.optimize import minimize
 
+from .slide import SlidingNodes
+
 log = logging.getLogger(__name__)
 
 #: weight of the area term against the conformal term (Garanzha et al. use a small theta too:
@@ -56,13 +58,26 @@ def corner_determinants(vertices: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
 
 
+def _positions(
+    x: np.ndarray, base: np.ndarray, free: np.ndarray, sliding: SlidingNodes | None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Vertex positions from the unknowns: free vertices' coordinates, then sliding vertices'
+    parameters along the boundary; and the sliding vertices' tangents."""
+    p = base.copy()
+    count = 2 * int(free.sum())
+    p[free] = x[:count].reshape(-1, 2)
+    if sliding is None:
+        return p, None
+    p[sliding.ids], tangents = sliding.positions(x[count:])
+    return p, tangents
+
+
 def _energy_and_gradient(
-    x: np.ndarray, base: np.ndarray, free: np.ndarray, ids, scale, eps: float
+    x: np.ndarray, base: np.ndarray, free: np.ndarray, ids, scale, eps: float, sliding=None
 ) -> tuple[float, np.ndarray]:
     """The energy and its gradient; ``scale`` is one reference size or one per corner."""
     centre, nxt, prev = ids
-    p = base.copy()
-    p[free] = x.reshape(-1, 2)
+    p, tangents = _positions(x, base, free, sliding)
     per_corner = np.ndim(scale) > 0
     s = np.asarray(scale)[:, None] if per_corner else scale
     a = (p[nxt] - p[centre]) / s
@@ -89,7 +104,13 @@ def _energy_and_gradient(
             + np.bincount(prev, weights=grad_b[:, c], minlength=n)
             - np.bincount(centre, weights=grad_a[:, c] + grad_b[:, c], minlength=n)
         )
-    return energy, (grad[free] if per_corner else grad[free] / scale).ravel()
+    if not per_corner:
+        grad /= scale
+    if sliding is None:
+        return energy, grad[free].ravel()
+    assert tangents is not None
+    along = np.einsum("ij,ij->i", grad[sliding.ids], tangents)
+    return energy, np.concatenate([grad[free].ravel(), along])
 
 
 def untangle(
@@ -98,6 +119,7 @@ def untangle(
     movable: np.ndarray,
     tolerance: float = 1e-6,
     reference: np.ndarray | None = None,
+    sliding: SlidingNodes | None = None,
 ) -> tuple[np.ndarray, dict]:
     """Fold-free, evenly shaped positions of the movable vertices of a planar quad mesh.
 
@@ -105,6 +127,7 @@ def untangle(
     movable : (n,) bool, the vertices that may move (the interior; boundary samples stay).
     reference : (m,) float, each quad's reference side length (a size field, e.g. on a
         flattening whose scale varies); default one size for all, from the mean panel area.
+    sliding : boundary vertices (not movable) that move along the boundary (:mod:`.slide`).
     tolerance : relative energy change that ends the outer loop once nothing is folded.
     Returns ``(vertices (n, 2), info)``; ``info`` has ``folded_before``, ``folded_after``
     (corners with a non-positive determinant), ``outer_iterations`` and ``energy``.
@@ -126,32 +149,36 @@ def untangle(
     scale = scale if scale > 0 else 1.0
     sizes = scale if reference is None else np.repeat(np.asarray(reference, dtype=float), 4)
     x = vertices2d[movable].ravel().copy()
+    bounds: list[tuple[float | None, float | None]] = [(None, None)] * len(x)
+    if sliding is not None:
+        x = np.concatenate([x, sliding.t])
+        bounds += sliding.track.bounds(sliding.t)
+        info["vertices_sliding"] = len(sliding.ids)
     previous = np.inf
     energy = np.inf
     outer = 0
     for outer in range(1, MAX_OUTER + 1):
-        p = vertices2d.copy()
-        p[movable] = x.reshape(-1, 2)
+        p, _ = _positions(x, vertices2d, movable, sliding)
         worst = float(corner_determinants(p, quads).min()) / scale**2
         # the paper's schedule: eps follows the worst fold, tiny once nothing is folded
         eps = float(np.sqrt(1e-8 + 0.04 * min(worst, 0.0) ** 2))
         result = minimize(
             _energy_and_gradient,
             x,
-            args=(vertices2d, movable, ids, sizes, eps),
+            args=(vertices2d, movable, ids, sizes, eps, sliding),
             jac=True,
             method="L-BFGS-B",
+            bounds=bounds if sliding is not None else None,
             options={"maxiter": INNER_ITERATIONS, "gtol": 1e-9, "ftol": 1e-12},
         )
         x = result.x
         energy = float(result.fun)
-        p[movable] = x.reshape(-1, 2)
+        p, _ = _positions(x, vertices2d, movable, sliding)
         folded = int((corner_determinants(p, quads) <= 0).sum())
         if folded == 0 and abs(previous - energy) <= tolerance * abs(energy):
             break
         previous = energy
-    out = vertices2d.copy()
-    out[movable] = x.reshape(-1, 2)
+    out, _ = _positions(x, vertices2d, movable, sliding)
     info.update(
         folded_after=int((corner_determinants(out, quads) <= 0).sum()),
         outer_iterations=outer,
