@@ -26,7 +26,7 @@ import os
 import subprocess
 import sys
 import tempfile
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +50,9 @@ log = logging.getLogger(__name__)
 PLATE_ROUNDS = 3
 PLATE_SHRINK = 0.88
 
+#: tries with boundary nodes sliding, each pinning the nodes of panels that left the plate
+SLIDE_ATTEMPTS = 2
+
 #: a boundary node this close to a corner of the outline (x the panel size) is that corner
 CORNER_TOLERANCE = 1e-3
 
@@ -68,24 +71,19 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
         )
     flat, scale = conformal_flattening(surface.vertices, surface.faces, surface.boundary_loops[0])
     flat_mesh = FlatMesh(flat, surface.faces, surface.vertices)
-    points = _singular_points(surface, job, query, flat_mesh)
+    domain = _Domain(
+        flat_mesh=flat_mesh,
+        scale=scale,
+        points=_singular_points(surface, job, query, flat_mesh),
+        track=_boundary_track(surface, flat, settings.corner_angle),
+        boundary=DesignBoundary(surface),
+        query=query,
+    )
     size = settings.panel_size
-    track = _boundary_track(surface, flat, settings.corner_angle)
-    boundary = DesignBoundary(surface)
     for plate_round in range(PLATE_ROUNDS + 1):
-        nodes, quads, on_curve, info = _gmsh_quads(surface, flat, scale, points, job, size)
-        # sliding boundary nodes square the boundary panels but can lengthen a boundary
-        # side; where that takes a panel off the plate, the nodes stay where gmsh put them
-        for slide in (track, None):
-            relaxed, info["relaxation"] = _relax(
-                nodes, quads, on_curve, points, flat_mesh, scale, size, slide
-            )
-            vertices = flat_mesh.interpolate(relaxed)
-            vertices[on_curve] = boundary.closest(vertices[on_curve])
-            vertices[~on_curve], _, _ = query.closest(vertices[~on_curve])
-            fits = not oversize_panels(vertices, quads, job).any()
-            if fits:
-                break
+        nodes, quads, on_curve, info = _gmsh_quads(surface, flat, scale, domain.points, job, size)
+        mesh = _FlatQuads(nodes, quads, on_curve, size)
+        vertices, info["relaxation"], fits = _placed_on_plate(domain, mesh, job)
         if fits or plate_round == PLATE_ROUNDS:
             break
         size *= PLATE_SHRINK  # some panels miss the plate: smaller panels everywhere
@@ -110,6 +108,70 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     return replace(layout, metrics=metrics, issues=found)
 
 
+@dataclass(frozen=True)
+class _Domain:
+    """The flattened design surface and what placing quads on it needs, made once."""
+
+    flat_mesh: FlatMesh
+    scale: np.ndarray
+    points: np.ndarray  # the singular points, flat
+    track: BoundaryTrack
+    boundary: DesignBoundary
+    query: SurfaceQuery
+
+
+@dataclass(frozen=True)
+class _FlatQuads:
+    """gmsh's quads of the flat domain, with the panel size they were made for."""
+
+    nodes: np.ndarray
+    quads: np.ndarray
+    on_curve: np.ndarray
+    size: float
+
+
+def _place(
+    domain: _Domain, mesh: _FlatQuads, slide: bool, pinned: np.ndarray | None = None
+) -> tuple[np.ndarray, dict]:
+    """The quads' nodes smoothed in the flat domain (boundary nodes sliding along the
+    boundary, except ``pinned`` ones, if ``slide``) and put on the surface; boundary nodes
+    exactly on the design boundary."""
+    relaxed, relaxation = _relax(
+        mesh.nodes,
+        mesh.quads,
+        mesh.on_curve,
+        domain.points,
+        domain.flat_mesh,
+        domain.scale,
+        mesh.size,
+        domain.track if slide else None,
+        np.zeros(len(mesh.nodes), dtype=bool) if pinned is None else pinned,
+    )
+    vertices = domain.flat_mesh.interpolate(relaxed)
+    vertices[mesh.on_curve] = domain.boundary.closest(vertices[mesh.on_curve])
+    vertices[~mesh.on_curve], _, _ = domain.query.closest(vertices[~mesh.on_curve])
+    return vertices, relaxation
+
+
+def _placed_on_plate(domain: _Domain, mesh: _FlatQuads, job: Job) -> tuple[np.ndarray, dict, bool]:
+    """The layout's vertices, the smoothing's report and whether every panel fits the plate.
+
+    Boundary nodes sliding square leaning boundary panels, but can lengthen a boundary side:
+    the nodes of a panel that no longer fits the plate are pinned where gmsh put them and the
+    smoothing is run again; if that does not fit either, no boundary node slides. Where an
+    interior panel misses the plate, only smaller panels help (the caller's next round)."""
+    pinned = np.zeros(len(mesh.nodes), dtype=bool)
+    for attempt in range(SLIDE_ATTEMPTS + 1):
+        slide = attempt < SLIDE_ATTEMPTS
+        vertices, relaxation = _place(domain, mesh, slide=slide, pinned=pinned)
+        oversize = oversize_panels(vertices, mesh.quads, job)
+        boundary_panel = mesh.on_curve[mesh.quads].any(axis=1)
+        if not oversize.any() or (oversize & ~boundary_panel).any():
+            break  # fits, or an interior panel misses the plate: sliding did not cause that
+        pinned[mesh.quads[oversize].ravel()] = True
+    return vertices, {**relaxation, "sliding": slide}, not oversize.any()
+
+
 def _relax(
     nodes: np.ndarray,
     quads: np.ndarray,
@@ -119,6 +181,7 @@ def _relax(
     scale: np.ndarray,
     size: float,
     track: BoundaryTrack | None,
+    pinned: np.ndarray,
 ) -> tuple[np.ndarray, dict]:
     """Nodes moved to right-angled panels of the asked size (fold-free smoothing,
     :mod:`.untangle`, with each quad's reference size the panel size times the flattening's
@@ -136,7 +199,7 @@ def _relax(
         fixed[int(np.argmin(np.linalg.norm(nodes - point, axis=1)))] = True
     sliding = None
     if track is not None:
-        candidates = np.flatnonzero(on_curve & ~fixed)
+        candidates = np.flatnonzero(on_curve & ~fixed & ~pinned)
         sliding = SlidingNodes.on_track(track, nodes, candidates, CORNER_TOLERANCE * size)
     relaxed, info = untangle(
         nodes, quads, ~on_curve & ~fixed, reference=size * local, sliding=sliding
