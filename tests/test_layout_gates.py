@@ -253,22 +253,25 @@ def test_field_layouts_of_hard_shapes_meet_the_size_gates(tmp_path, name):
     assert gates["manifold"]
     assert gates["euler_characteristic"] == gates["surface_euler_characteristic"]
     assert gates["count_ratio"] <= 1.3  # measured 1.08-1.27
-    assert gates["edges_in_band"] >= 0.9  # measured 0.91-0.99
-    assert gates["shortest_edge_vs_panel_size"] >= 0.3  # measured 0.42-0.61
-    # corners: measured 43-159 degrees, 89-98 % within 60-120; the worst sit at a boundary
-    # vertex of one panel on a rounded outline (see the README's limits)
-    assert gates["corners_in_45_135"] >= 0.98
-    assert gates["corners_in_60_120"] >= 0.88
+    # measured 0.895-1.0; canopy4's 1.1-1.6 m openings get eight edges of 0.45 m each
+    assert gates["edges_in_band"] >= 0.88
+    assert gates["shortest_edge_vs_panel_size"] >= 0.3  # measured 0.37-0.62
+    # corners: measured 44-159 degrees, 93-98 % within 60-120; the worst is a boundary vertex
+    # of one panel on the funnel's rounded lobe (see the README's limits)
+    assert gates["corners_in_45_135"] >= 0.99
+    assert gates["corners_in_60_120"] >= 0.92
     assert not [i for i in layout.issues if i.code == "layout-narrow-panel"]
 
 
-@pytest.mark.parametrize("name", ["dome_oculus", "hypar_hole"])
+@pytest.mark.parametrize("name", ["dome_oculus", "hypar_hole", "wavy_strip"])
 def test_sliding_boundary_nodes_bring_every_corner_within_45_to_135_degrees(tmp_path, name):
-    # before the boundary nodes slid, leaning boundary panels had corners of 134-148 degrees
+    # before the boundary nodes slid, leaning boundary panels had corners of 134-151 degrees
     layout = fp.panelize(_hard_shape(name, tmp_path), _job("1 m", method="field"))
     gates = layout.metrics["gates"]
-    assert gates["corners_in_45_135"] == 1.0  # measured 55-127 degrees
-    assert gates["corners_in_60_120"] >= 0.95  # measured 0.98
+    assert gates["corners_in_45_135"] == 1.0  # measured 47-131 degrees
+    assert gates["corners_in_60_120"] >= 0.95  # measured 0.96-0.98
+    assert gates["shortest_edge_vs_panel_size"] >= 0.3  # wavy_strip: 50 mm before its
+    # cut corners (two 40-degree turns 150 mm apart) became one corner each
     assert layout.metrics["field"]["relaxation"]["vertices_sliding"] > 20
 
 

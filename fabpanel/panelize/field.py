@@ -38,10 +38,11 @@ from ..job import Job
 from ..surface import SurfaceQuery
 from ..units import length_scale
 from .boundary import DesignBoundary
+from .corners import OutlineCorners, outline_corners
 from .decompose import oversize_panels
+from .gates import MIN_EDGE
 from .lift import FlatMesh, barycentric_weights
 from .quality import layout_metrics
-from .skeleton_input import turning_angles
 from .slide import BoundaryTrack, SlidingNodes
 
 log = logging.getLogger(__name__)
@@ -71,17 +72,21 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
         )
     flat, scale = conformal_flattening(surface.vertices, surface.faces, surface.boundary_loops[0])
     flat_mesh = FlatMesh(flat, surface.faces, surface.vertices)
+    # corners closer than the shortest edge the gates allow are one corner
+    outline = outline_corners(surface, flat, settings.corner_angle, MIN_EDGE * settings.panel_size)
     domain = _Domain(
         flat_mesh=flat_mesh,
         scale=scale,
         points=_singular_points(surface, job, query, flat_mesh),
-        track=_boundary_track(surface, flat, settings.corner_angle),
+        track=_boundary_track(outline, flat),
         boundary=DesignBoundary(surface),
         query=query,
     )
     size = settings.panel_size
     for plate_round in range(PLATE_ROUNDS + 1):
-        nodes, quads, on_curve, info = _gmsh_quads(surface, flat, scale, domain.points, job, size)
+        nodes, quads, on_curve, info = _gmsh_quads(
+            surface, flat, scale, outline, domain.points, job, size
+        )
         mesh = _FlatQuads(nodes, quads, on_curve, size)
         vertices, info["relaxation"], fits = _placed_on_plate(domain, mesh, job)
         if fits or plate_round == PLATE_ROUNDS:
@@ -200,13 +205,26 @@ def _relax(
     sliding = None
     if track is not None:
         candidates = np.flatnonzero(on_curve & ~fixed & ~pinned)
-        sliding = SlidingNodes.on_track(track, nodes, candidates, CORNER_TOLERANCE * size)
+        edges, quad_of_edge = _boundary_edges(quads)
+        sliding = SlidingNodes.on_track(
+            track, nodes, candidates, CORNER_TOLERANCE * size, edges, size * local[quad_of_edge]
+        )
     relaxed, info = untangle(
         nodes, quads, ~on_curve & ~fixed, reference=size * local, sliding=sliding
     )
     if info["folded_after"] > info["folded_before"]:
         return nodes, {**info, "kept": "gmsh"}
     return relaxed, info
+
+
+def _boundary_edges(quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The quad sides used by one quad only, (k, 2) node ids, and the quad of each."""
+    sides = np.stack([quads, np.roll(quads, -1, axis=1)], axis=2).reshape(-1, 2)
+    _, index, counts = np.unique(
+        np.sort(sides, axis=1), axis=0, return_index=True, return_counts=True
+    )
+    once = index[counts == 1]
+    return sides[once], once // 4
 
 
 def _interpolate_scale(flat_mesh: FlatMesh, scale: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -232,29 +250,16 @@ def _singular_points(
     return np.einsum("pk,pkc->pc", weights, flat_mesh.flat[faces])
 
 
-def _boundary_track(surface: Surface, flat: np.ndarray, corner_angle: float) -> BoundaryTrack:
+def _boundary_track(outline: OutlineCorners, flat: np.ndarray) -> BoundaryTrack:
     """The flat boundary loops, kinked at the outline's corners, for the sliding nodes."""
-    loops = [flat[loop] for loop in surface.boundary_loops]
-    flags = np.split(
-        _corner_flags(surface, flat, corner_angle), np.cumsum([len(x) for x in loops])[:-1]
-    )
-    return BoundaryTrack.from_loops(loops, flags)
-
-
-def _corner_flags(surface: Surface, flat: np.ndarray, corner_angle: float) -> np.ndarray:
-    """Per concatenated loop vertex: does the boundary turn there by more than corner_angle?
-
-    Measured in the conformal flattening, which keeps angles."""
-    flags = []
-    for loop in surface.boundary_loops:
-        flags.append(np.abs(turning_angles(flat[loop])) > corner_angle)
-    return np.concatenate(flags)
+    return BoundaryTrack.from_loops([flat[loop] for loop in outline.loops], list(outline.corners))
 
 
 def _gmsh_quads(
     surface: Surface,
     flat: np.ndarray,
     scale: np.ndarray,
+    outline: OutlineCorners,
     points: np.ndarray,
     job: Job,
     size: float,
@@ -269,7 +274,7 @@ def _gmsh_quads(
         cross["cross"], _ = curvature_cross_field(
             surface.vertices, surface.faces, flat, surface.boundary_loops
         )
-    loops = list(surface.boundary_loops)
+    loops = list(outline.loops)
     starts = np.cumsum([0, *[len(loop) for loop in loops[:-1]]])
     with tempfile.TemporaryDirectory(prefix="fabpanel-gmsh-") as folder:
         source, target = Path(folder) / "in.npz", Path(folder) / "out.npz"
@@ -280,7 +285,7 @@ def _gmsh_quads(
             scale=scale,
             loops=np.concatenate(loops),
             loop_starts=starts,
-            corners=_corner_flags(surface, flat, job.panelize.corner_angle),
+            corners=np.concatenate(outline.corners),
             points=points,
             h=float(size),
             area=surface.area,

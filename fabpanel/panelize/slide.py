@@ -122,22 +122,56 @@ class BoundaryTrack:
 
 @dataclass(frozen=True)
 class SlidingNodes:
-    """The nodes that slide, their loops on the track and their starting parameters."""
+    """The nodes that slide, their loops on the track and their starting parameters; and the
+    boundary edges whose lengths are held near a reference (``edges`` (k, 2) node ids,
+    ``lengths`` (k,)), since the smoothing energy alone lets boundary nodes drift into short
+    and long sides where that squares the panels a little more."""
 
     ids: np.ndarray
     loops: np.ndarray
     t: np.ndarray
     track: BoundaryTrack
+    edges: np.ndarray
+    lengths: np.ndarray
 
     @classmethod
     def on_track(
-        cls, track: BoundaryTrack, nodes: np.ndarray, candidates: np.ndarray, tolerance: float
+        cls,
+        track: BoundaryTrack,
+        nodes: np.ndarray,
+        candidates: np.ndarray,
+        tolerance: float,
+        edges: np.ndarray | None = None,
+        lengths: np.ndarray | None = None,
     ) -> SlidingNodes:
-        """The candidate nodes (ids) that are not on a corner, located on the track."""
+        """The candidate nodes (ids) that are not on a corner, located on the track; with the
+        boundary ``edges`` to hold at ``lengths`` (none by default)."""
         t, on_corner = track.locate(nodes[candidates], tolerance)
         ids, t = candidates[~on_corner], t[~on_corner]
-        return cls(ids=ids, loops=np.searchsorted(track.spans[:, 1], t), t=t, track=track)
+        return cls(
+            ids=ids,
+            loops=np.searchsorted(track.spans[:, 1], t),
+            t=t,
+            track=track,
+            edges=np.zeros((0, 2), dtype=np.int64) if edges is None else edges,
+            lengths=np.zeros(0) if lengths is None else lengths,
+        )
 
     def positions(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Points and tangents of the sliding nodes at parameters ``t``."""
         return self.track.at(self.track.wrap(t, self.loops))
+
+    def edge_energy(self, p: np.ndarray, weight: float) -> tuple[float, np.ndarray]:
+        """``weight x sum (length / reference - 1)²`` over the held edges, and its gradient
+        with respect to every node position (n, 2)."""
+        grad = np.zeros_like(p)
+        if not len(self.edges):
+            return 0.0, grad
+        d = p[self.edges[:, 1]] - p[self.edges[:, 0]]
+        length = np.maximum(np.linalg.norm(d, axis=1), 1e-12)
+        excess = length / self.lengths - 1.0
+        pull = (2.0 * weight * excess / self.lengths / length)[:, None] * d
+        for c in range(2):
+            grad[:, c] += np.bincount(self.edges[:, 1], weights=pull[:, c], minlength=len(p))
+            grad[:, c] -= np.bincount(self.edges[:, 0], weights=pull[:, c], minlength=len(p))
+        return float(weight * (excess**2).sum()), grad

@@ -36,6 +36,9 @@ log = logging.getLogger(__name__)
 #: weight of the area term against the conformal term (Garanzha et al. use a small theta too:
 #: shape first, sizes evened only gently so that the strip densities stay as chosen)
 AREA_WEIGHT = 0.25
+#: weight of a boundary edge's (length / reference - 1)² against one corner's distortion,
+#: where boundary nodes slide (:mod:`.slide`)
+EDGE_WEIGHT = 4.0
 #: outer iterations (eps updates) at most; the paper needs a handful on hard cases
 MAX_OUTER = 40
 #: L-BFGS iterations per outer step
@@ -108,6 +111,9 @@ def _energy_and_gradient(
         grad /= scale
     if sliding is None:
         return energy, grad[free].ravel()
+    held, held_grad = sliding.edge_energy(p, EDGE_WEIGHT)
+    energy += held
+    grad += held_grad
     assert tangents is not None
     along = np.einsum("ij,ij->i", grad[sliding.ids], tangents)
     return energy, np.concatenate([grad[free].ravel(), along])

@@ -1,0 +1,97 @@
+"""The corners of a surface's outline, as the field method's quad mesher should see them.
+
+A mesh's boundary is a polyline, and where the design outline has a corner the mesh often cuts
+it: a 100° corner sampled at 0.2 m becomes two vertices turning 40° each, 150 mm apart. Taken
+vertex by vertex, both are corners, the mesher puts a curve end at each and the layout gets a
+150 mm edge between them. Here a corner is where the outline turns by more than
+``corner_angle`` within a short stretch (``merge``, tied to the shortest edge the layout gates
+allow); the sharpest vertex of the stretch is the corner, and the stretch's other vertices near
+it are left out of the outline the mesher gets (a curve through them would bend sharply
+without a corner). Angles are measured in the conformal flattening, which keeps them;
+lengths on the surface.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..data import Surface
+from .skeleton_input import turning_angles
+
+
+@dataclass(frozen=True)
+class OutlineCorners:
+    """Per boundary loop: the vertex ids the mesher gets (surface vertex ids, in loop order)
+    and which of them are corners."""
+
+    loops: tuple[np.ndarray, ...]
+    corners: tuple[np.ndarray, ...]
+
+
+def outline_corners(
+    surface: Surface, flat: np.ndarray, corner_angle: float, merge: float
+) -> OutlineCorners:
+    """The outline's corners (see the module docstring); ``merge`` in mm."""
+    loops, corners = [], []
+    for loop in surface.boundary_loops:
+        turning = turning_angles(flat[loop])
+        arc = _arc_lengths(surface.vertices[loop])
+        candidate = (np.abs(turning) > corner_angle) | (
+            np.abs(_window_sums(turning, arc, merge)) > corner_angle
+        )
+        corner, dropped = _sharpest_of_each_run(candidate, turning, arc, merge)
+        keep = ~dropped
+        loops.append(loop[keep])
+        corners.append(corner[keep])
+    return OutlineCorners(loops=tuple(loops), corners=tuple(corners))
+
+
+def _arc_lengths(points: np.ndarray) -> np.ndarray:
+    """(n + 1,) arc length at every vertex of the closed polyline, and its total last."""
+    steps = np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1)
+    return np.concatenate([[0.0], np.cumsum(steps)])
+
+
+def _window_sums(turning: np.ndarray, arc: np.ndarray, window: float) -> np.ndarray:
+    """The signed turning within ``window / 2`` of arc length either side of every vertex of
+    a closed loop (the loop is laid out three times so that windows wrap round)."""
+    total, at = arc[-1], arc[:-1]
+    tripled = np.concatenate([at - total, at, at + total])
+    summed = np.concatenate([[0.0], np.cumsum(np.tile(turning, 3))])
+    low = np.searchsorted(tripled, at - window / 2, side="left")
+    high = np.searchsorted(tripled, at + window / 2, side="right")
+    return summed[high] - summed[low]
+
+
+def _sharpest_of_each_run(
+    candidate: np.ndarray, turning: np.ndarray, arc: np.ndarray, merge: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per vertex: is it the corner of its run (consecutive candidates, each within ``merge``
+    of the one before: the vertex turning most), and is it another vertex of a run within
+    ``merge / 2`` of that corner (dropped)."""
+    n = len(candidate)
+    corner = np.zeros(n, dtype=bool)
+    dropped = np.zeros(n, dtype=bool)
+    steps = np.diff(arc)  # steps[i]: from vertex i to vertex i + 1
+    linked = candidate & np.roll(candidate, 1) & (np.roll(steps, 1) <= merge)  # to the previous
+    if linked.all():  # one run all round: the sharpest vertex only
+        corner[int(np.argmax(np.abs(turning)))] = True
+        return corner, dropped
+    first = int(np.flatnonzero(~linked)[0])  # a walk from here starts no run half way
+    order = (first + np.arange(n)) % n
+    run: list[int] = []
+    total = arc[-1]
+    for index in [*order, -1]:
+        if run and (index < 0 or not linked[index]):  # the run before ends here
+            members = np.asarray(run)
+            sharpest = members[int(np.argmax(np.abs(turning[members])))]
+            corner[sharpest] = True
+            gap = np.abs(arc[members] - arc[sharpest])
+            near = np.minimum(gap, total - gap) <= merge / 2
+            dropped[members[near & (members != sharpest)]] = True
+            run = []
+        if index >= 0 and candidate[index]:
+            run.append(int(index))
+    return corner, dropped
