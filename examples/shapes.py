@@ -510,7 +510,7 @@ path = "{input}"{input_pad}# design surface: OBJ, STL, PLY, OFF, GLB, STEP, IGES
 {units_line}
 
 [panelize]
-method = "auto"                # auto (grid if four-sided, else skeleton) | grid | skeleton | layout
+method = "auto"                # auto (grid if four-sided, else the better of skeleton and field) | grid | skeleton | field | layout
 panel_size = "{panel_size}"{size_pad}# target panel edge length; an unrolled sheet must fit the plate
 # grid_u = 10                  # grid: explicit panel counts along the grid directions
 # grid_v = 8

@@ -39,6 +39,9 @@ def test_cut_corners_become_one_corner_each_and_their_cut_is_left_out():
     distance = np.linalg.norm(corners[:, None, :] - square[None, :, :], axis=2).min(axis=1)
     assert distance.max() < 200.0
     assert len(found.loops[0]) == len(points) - 4  # the other vertex of each cut left out
+    np.testing.assert_array_equal(
+        np.sort(found.cut_corners), np.sort(found.loops[0][found.corners[0]])
+    )
     # without merging, each cut gives two corners 148 mm apart (the short edge it caused)
     apart = outline_corners(surface, points, corner_angle=30.0, merge=1.0)
     assert apart.corners[0].sum() == 8 and len(apart.loops[0]) == len(points)
@@ -49,6 +52,7 @@ def test_a_smooth_outline_has_no_corner_and_keeps_every_vertex():
     ellipse = np.column_stack([5000 * np.cos(t), 3000 * np.sin(t)])
     found = outline_corners(_outline(ellipse), ellipse, corner_angle=30.0, merge=300.0)
     assert not found.corners[0].any() and len(found.loops[0]) == 180
+    assert not len(found.cut_corners)
 
 
 def test_two_real_corners_further_apart_than_merge_both_stay():
@@ -71,3 +75,4 @@ def test_two_real_corners_further_apart_than_merge_both_stay():
     found = outline_corners(_outline(points), points, corner_angle=30.0, merge=300.0)
     corners = points[found.loops[0][found.corners[0]]]
     np.testing.assert_allclose(np.sort(corners, axis=0), np.sort(slot, axis=0), atol=1e-9)
+    assert not len(found.cut_corners)  # exact corners: nothing was cut

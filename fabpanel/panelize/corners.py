@@ -20,21 +20,27 @@ import numpy as np
 from ..data import Surface
 from .skeleton_input import turning_angles
 
+#: a vertex left out beside a corner that turns more than this (degrees) was a facet of it
+FACET_TURN = 5.0
+
 
 @dataclass(frozen=True)
 class OutlineCorners:
     """Per boundary loop: the vertex ids the mesher gets (surface vertex ids, in loop order)
-    and which of them are corners."""
+    and which of them are corners; and the surface vertex ids of the corners that were cut
+    (the vertices left out beside them): there the design outline has a short facet that a
+    smooth sheet edge cannot follow exactly."""
 
     loops: tuple[np.ndarray, ...]
     corners: tuple[np.ndarray, ...]
+    cut_corners: np.ndarray
 
 
 def outline_corners(
     surface: Surface, flat: np.ndarray, corner_angle: float, merge: float
 ) -> OutlineCorners:
     """The outline's corners (see the module docstring); ``merge`` in mm."""
-    loops, corners = [], []
+    loops, corners, cut = [], [], []
     for loop in surface.boundary_loops:
         turning = turning_angles(flat[loop])
         arc = _arc_lengths(surface.vertices[loop])
@@ -45,7 +51,24 @@ def outline_corners(
         keep = ~dropped
         loops.append(loop[keep])
         corners.append(corner[keep])
-    return OutlineCorners(loops=tuple(loops), corners=tuple(corners))
+        cut.append(loop[_cut_of(corner, dropped, turning, arc, merge)])
+    return OutlineCorners(
+        loops=tuple(loops), corners=tuple(corners), cut_corners=np.concatenate(cut)
+    )
+
+
+def _cut_of(
+    corner: np.ndarray, dropped: np.ndarray, turning: np.ndarray, arc: np.ndarray, merge: float
+) -> np.ndarray:
+    """The corners with a dropped vertex within ``merge`` of them that turns by more than
+    ``FACET_TURN`` (points left out of a straight side beside a corner are no facet)."""
+    facets = np.flatnonzero(dropped & (np.abs(turning) > FACET_TURN))
+    if not len(facets):
+        return np.zeros(0, dtype=int)
+    ids = np.flatnonzero(corner)
+    gap = np.abs(arc[ids][:, None] - arc[facets][None, :])
+    gap = np.minimum(gap, arc[-1] - gap)
+    return ids[(gap <= merge).any(axis=1)]
 
 
 def _arc_lengths(points: np.ndarray) -> np.ndarray:
@@ -68,9 +91,10 @@ def _window_sums(turning: np.ndarray, arc: np.ndarray, window: float) -> np.ndar
 def _sharpest_of_each_run(
     candidate: np.ndarray, turning: np.ndarray, arc: np.ndarray, merge: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per vertex: is it the corner of its run (consecutive candidates, each within ``merge``
-    of the one before: the vertex turning most), and is it another vertex of a run within
-    ``merge / 2`` of that corner (dropped)."""
+    """Per vertex: is it a corner, and is it left out. A run is consecutive candidates, each
+    within ``merge`` of the one before; its vertex turning most is a corner and the run's
+    other vertices within ``merge`` of it are left out (a long run, a tight bend rather than
+    a corner, keeps its vertices further away, and the mesher's curve bends through them)."""
     n = len(candidate)
     corner = np.zeros(n, dtype=bool)
     dropped = np.zeros(n, dtype=bool)
@@ -89,7 +113,7 @@ def _sharpest_of_each_run(
             sharpest = members[int(np.argmax(np.abs(turning[members])))]
             corner[sharpest] = True
             gap = np.abs(arc[members] - arc[sharpest])
-            near = np.minimum(gap, total - gap) <= merge / 2
+            near = np.minimum(gap, total - gap) <= merge
             dropped[members[near & (members != sharpest)]] = True
             run = []
         if index >= 0 and candidate[index]:

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..data import PanelLayout, Surface
-from ..errors import GeometryError
+from ..errors import GeometryError, Issue
 from ..geom.conformal import conformal_flattening
 from ..job import Job
 from ..surface import SurfaceQuery
@@ -109,6 +109,7 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     )
     info["align"] = settings.align
     metrics["field"] = info
+    found = (*found, *_cut_corner_issues(surface, outline))
     log.info("field panelisation: %d panels", len(quads))
     return replace(layout, metrics=metrics, issues=found)
 
@@ -248,6 +249,24 @@ def _singular_points(
     corners = surface.vertices[faces]
     weights = barycentric_weights(on_surface, corners)
     return np.einsum("pk,pkc->pc", weights, flat_mesh.flat[faces])
+
+
+def _cut_corner_issues(surface: Surface, outline: OutlineCorners) -> tuple[Issue, ...]:
+    """A warning for the corners of the outline that the design mesh cut into a short facet."""
+    if not len(outline.cut_corners):
+        return ()
+    at = surface.vertices[outline.cut_corners] + surface.origin
+    where = ", ".join(f"({x:.0f}, {y:.0f}, {z:.0f})" for x, y, z in at[:4])
+    more = f" and {len(at) - 4} more" if len(at) > 4 else ""
+    return (
+        Issue(
+            "outline-cut-corner",
+            f"{len(at)} corner(s) of the outline are cut by the design mesh into short facets, "
+            f"at {where}{more} mm; each is taken as one corner, so the sheets do not follow "
+            f"the facet exactly (boundary_deviation_mm shows by how much); give the mesh a "
+            f"vertex at each corner",
+        ),
+    )
 
 
 def _boundary_track(outline: OutlineCorners, flat: np.ndarray) -> BoundaryTrack:
