@@ -303,3 +303,13 @@ def test_curvature_alignment_follows_the_rulings_of_a_skewed_vault(tmp_path):
     # front is near (layout.md §4.4), but the panels do turn towards the rulings
     assert found["boundary"] > 20.0  # the square's sides run about 30° off the rulings
     assert found["curvature"] < found["boundary"] - 4.0
+
+
+def test_auto_replaces_a_poor_grid_on_a_four_sided_strip_by_the_field_layout(tmp_path):
+    # the wavy strip has four corners, so auto tries a grid first: 0.9 mm edges and 38
+    # narrow panels there, where the field layout passes every gate
+    layout = fp.panelize(_hard_shape("wavy_strip", tmp_path), _job("1 m", method="auto"))
+    assert layout.method == "field"
+    auto = layout.metrics["auto"]
+    assert auto["chosen"] == "field" and auto["scores"]["field"] > auto["scores"]["grid"]
+    assert not [i for i in layout.issues if i.severity == "error"]

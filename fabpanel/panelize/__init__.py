@@ -58,10 +58,19 @@ def panelize(surface: Surface, job: Job, query: SurfaceQuery | None = None) -> P
     query = query or SurfaceQuery(surface)
     method = choose_method(surface, job)
     if method == "compare":
-        layout = _better_layout(surface, job, query)
+        layout = _better_layout(surface, job, query, ("skeleton", "field"))
     else:
         layout = _gated(_layout_by_method(method, surface, job, query), surface, job)
+        asked_counts = job.panelize.grid_u is not None or job.panelize.grid_v is not None
+        if job.panelize.method == "auto" and not asked_counts and _fails_a_gate(layout):
+            # a four-sided outline can still be a poor grid (a wavy strip, a notch): the
+            # field layout is made too and the better one kept
+            layout = _better_layout(surface, job, query, ("grid", "field"), {"grid": layout})
     return replace(layout, origin=surface.origin)
+
+
+def _fails_a_gate(layout: PanelLayout) -> bool:
+    return any(issue.code.startswith("layout-") for issue in layout.issues)
 
 
 #: boundary vertices closer than this fraction of the panel size to the design boundary are
@@ -94,11 +103,20 @@ def _gated(layout: PanelLayout, surface: Surface, job: Job) -> PanelLayout:
     )
 
 
-def _better_layout(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
-    """Both the skeleton and the field layout; the one with the higher gate score."""
-    made: dict[str, PanelLayout] = {}
+def _better_layout(
+    surface: Surface,
+    job: Job,
+    query: SurfaceQuery,
+    methods: tuple[str, str],
+    made: dict[str, PanelLayout] | None = None,
+) -> PanelLayout:
+    """The layouts of both methods (those not already ``made``); the one with the higher gate
+    score, the first method on a tie."""
+    made = dict(made or {})
     failed: dict[str, str] = {}
-    for method in ("skeleton", "field"):
+    for method in methods:
+        if method in made:
+            continue
         try:
             made[method] = _gated(_layout_by_method(method, surface, job, query), surface, job)
         except GeometryError as err:
@@ -106,7 +124,7 @@ def _better_layout(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     if not made:
         raise GeometryError(" / ".join(failed.values()))
     scores = {m: layout.metrics["gates"]["score"] for m, layout in made.items()}
-    best = max(scores, key=lambda m: (scores[m], m == "skeleton"))
+    best = max(scores, key=lambda m: (scores[m], m == methods[0]))
     if failed:
         reason = f"{best}: the other method failed ({next(iter(failed.values()))})"
     elif len(scores) > 1:
