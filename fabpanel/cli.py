@@ -11,6 +11,7 @@ import os
 import signal
 import sys
 import time
+from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -205,12 +206,18 @@ def _print_summary(result) -> None:
             f"  {summary['panels']['count']} panels, {parts['count']} parts, {parts['mass_kg']} kg",
             err=True,
         )
+    if result.flat is not None and result.flat.marks:
+        click.echo(f"  {len(result.flat.marks)} part marks (cut/parts, marks.csv)", err=True)
     if "nests" in summary:
         click.echo(f"  {summary['nests']['plates']} plates", err=True)
     if "structure" in result.stages_run and result.structure is not None:
         from .structure import describe
 
         click.echo(f"  structure: {describe(result.structure)}", err=True)
+    warnings = Counter(i.code for i in result.issues if i.severity == "warning")
+    if warnings:
+        listed = ", ".join(f"{code} x{n}" if n > 1 else code for code, n in warnings.items())
+        click.echo(f"  {sum(warnings.values())} warning(s): {listed} (in manifest.json)", err=True)
 
 
 _export_options = [

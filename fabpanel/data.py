@@ -370,6 +370,10 @@ class FlatPart:
         sheets: length of each side in the flat outline and on the 3D surface, mm.
     forming : str
         sheets: how the shop forms it, as etched (``OUT CONVEX R4000``, ``OUT FLAT``).
+    face : str
+        ribs and stiffeners: which way the drawn face looks, as etched (``IN``: into the panel).
+    mark : str
+        the part mark (:mod:`fabpanel.flat.marks`): parts equal within 0.1 mm share it.
     """
 
     id: str
@@ -388,6 +392,8 @@ class FlatPart:
     edge_lengths_flat: np.ndarray | None = None
     edge_lengths_3d: np.ndarray | None = None
     forming: str = ""
+    face: str = ""
+    mark: str = ""
     files: tuple[str, ...] = ()
 
     @property
@@ -403,6 +409,7 @@ class FlatPart:
     def to_dict(self) -> dict:
         record = {
             "id": self.id,
+            "mark": self.mark,
             "kind": self.kind,
             "panel": self.panel_id,
             "thickness_mm": self.thickness,
@@ -419,13 +426,37 @@ class FlatPart:
 
 
 @dataclass(frozen=True)
+class MarkGroup:
+    """One part mark: the ids of its parts (the first is the one drawn) and, per part, the
+    (3, 3) transform from the first part's flat frame to its own."""
+
+    mark: str
+    part_ids: tuple[str, ...]
+    transforms: tuple[np.ndarray, ...]
+
+    @property
+    def quantity(self) -> int:
+        return len(self.part_ids)
+
+    def to_dict(self) -> dict:
+        return {"mark": self.mark, "quantity": self.quantity, "parts": list(self.part_ids)}
+
+
+@dataclass(frozen=True)
 class FlatParts:
+    """The flat parts, one per part of the model, and their marks (every part in one)."""
+
     parts: tuple[FlatPart, ...]
     metrics: dict = field(default_factory=dict)
     issues: tuple[Issue, ...] = ()
+    marks: tuple[MarkGroup, ...] = ()
 
     def to_dict(self) -> dict:
-        return {"parts": [p.to_dict() for p in self.parts], "metrics": self.metrics}
+        return {
+            "parts": [p.to_dict() for p in self.parts],
+            "marks": [m.to_dict() for m in self.marks],
+            "metrics": self.metrics,
+        }
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from . import __version__
-from .data import DevelopedPanels, FlatParts, Model, Nests, PanelLayout, Surface
+from .data import DevelopedPanels, FlatPart, FlatParts, Model, Nests, PanelLayout, Surface
 from .errors import InputError, Issue
 from .job import STAGES, Job, Stage
 from .outdir import check_target, discard_staging, make_staging, move_into_place, sweep_stale
@@ -319,7 +319,11 @@ def _write_cut_files(
         size = max(1, -(-len(items) // (4 * workers)))
         return [items[i : i + size] for i in range(0, len(items), size)]
 
-    part_chunks = [FlatParts(parts=tuple(c)) for c in chunks(list(flat.parts))]
+    # one file per mark: only each mark's first part goes to the writers
+    drawn: dict[str, FlatPart] = {}
+    for part in flat.parts:
+        drawn.setdefault(part.mark or part.id, part)
+    part_chunks = [FlatParts(parts=tuple(c)) for c in chunks(list(drawn.values()))]
     plate_chunks = [Nests(plates=tuple(c)) for c in chunks(list(nests.plates))]
     if workers == 1:
         part_maps = [_write_part_chunk(c, folder / "parts") for c in part_chunks]
@@ -334,7 +338,8 @@ def _write_cut_files(
             ]
             part_maps = [f.result() for f in part_futures]
             plate_maps = [f.result() for f in plate_futures]
-    part_files = {k: v for m in part_maps for k, v in m.items()}
+    drawn_files = {k: v for m in part_maps for k, v in m.items()}
+    part_files = {p.id: drawn_files[drawn[p.mark or p.id].id] for p in flat.parts}
     plate_files = {k: v for m in plate_maps for k, v in m.items()}
     return part_files, plate_files
 
@@ -389,6 +394,8 @@ def _write_outputs(
     manifest = build_manifest(result, files)
     (folder / "manifest.json").write_text(json.dumps(manifest, indent=1, default=_json_default))
     _write_bom(result, folder / "bom.csv", files)
+    if result.flat is not None and result.model is not None:
+        _write_marks(result, folder / "marks.csv", files)
     if job.output.report:
         from .report import write_report
 
@@ -489,6 +496,7 @@ def build_manifest(result: Result, files: dict[str, list[str]]) -> dict:
         "stages_run": list(result.stages_run),
         "panels": panels,
         "parts": parts,
+        "marks": [m.to_dict() for m in result.flat.marks] if result.flat is not None else [],
         "nests": (
             [{**p.to_dict(), "files": files.get(p.name, [])} for p in result.nests.plates]
             if result.nests is not None
@@ -509,6 +517,8 @@ def _write_bom(result: Result, path: Path, files: dict[str, list[str]]) -> None:
         writer.writerow(
             [
                 "part",
+                "mark",
+                "quantity",
                 "kind",
                 "panel",
                 "material",
@@ -528,12 +538,17 @@ def _write_bom(result: Result, path: Path, files: dict[str, list[str]]) -> None:
         )
         if result.model is None:
             return
+        quantity = (
+            {m.mark: m.quantity for m in result.flat.marks} if result.flat is not None else {}
+        )
         for part in result.model.parts:
             flat = flat_by_id.get(part.id)
             size = np.ptp(flat.outline, axis=0) if flat is not None else (None, None)
             writer.writerow(
                 [
                     part.id,
+                    flat.mark if flat is not None else "",
+                    quantity.get(flat.mark, "") if flat is not None else "",
                     part.kind,
                     part.panel_id,
                     part.material,
@@ -549,5 +564,52 @@ def _write_bom(result: Result, path: Path, files: dict[str, list[str]]) -> None:
                     pierces(flat) if flat is not None else "",
                     plate_of.get(part.id, ""),
                     " ".join(files.get(part.id, [])),
+                ]
+            )
+
+
+def _write_marks(result: Result, path: Path, files: dict[str, list[str]]) -> None:
+    """One row per part mark: what the shop cuts, how many, what it weighs, where they go."""
+    assert result.flat is not None and result.model is not None
+    flat_by_id = {p.id: p for p in result.flat.parts}
+    model_by_id = {p.id: p for p in result.model.parts}
+    with path.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(
+            [
+                "mark",
+                "quantity",
+                "kind",
+                "material",
+                "thickness_mm",
+                "flat_length_mm",
+                "flat_width_mm",
+                "flat_area_mm2",
+                "mass_kg_each",
+                "mass_kg_total",
+                "forming",
+                "file",
+                "parts",
+            ]
+        )
+        for group in result.flat.marks:
+            first = flat_by_id[group.part_ids[0]]
+            mass = [model_by_id[i].mass for i in group.part_ids if i in model_by_id]
+            size = np.ptp(first.outline, axis=0)
+            writer.writerow(
+                [
+                    group.mark,
+                    group.quantity,
+                    first.kind,
+                    first.material,
+                    f"{first.thickness:g}",
+                    f"{size[0]:.1f}",
+                    f"{size[1]:.1f}",
+                    f"{first.area:.1f}",
+                    f"{np.mean(mass):.4f}" if mass else "",
+                    f"{np.sum(mass):.4f}" if mass else "",
+                    first.forming or first.face,
+                    " ".join(files.get(first.id, [])),
+                    " ".join(group.part_ids),
                 ]
             )

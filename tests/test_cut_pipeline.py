@@ -138,7 +138,10 @@ def test_plates_say_which_face_looks_into_the_panel(cone_run):
     plates = [p for p in flat.parts if p.kind in ("rib", "stiffener")]
     assert len(plates) == 9 * 8
     for plate in plates:
-        assert [label[0] for label in plate.labels] == [plate.id, plate.panel_id, "IN"]
+        # its mark; the part, or how many to cut where the mark has several; the face
+        count = next(g.quantity for g in flat.marks if plate.id in g.part_ids)
+        second = plate.id if count == 1 else f"{count} OFF"
+        assert [label[0] for label in plate.labels] == [plate.mark, second, "IN"]
         # the drawing shows the frame's +z face: the solid lies on that side of its plane, and
         # so does the panel's centre
         frame = np.asarray(parts[plate.id].frame)

@@ -154,7 +154,9 @@ def test_cut_sheets_and_ribs(tmp_path):
     direction = top.bend_lines[:, 1] - top.bend_lines[:, 0]
     np.testing.assert_allclose(np.abs(direction[:, 0]), 0, atol=1e-6)
     assert len(cone.bend_lines) > 0
-    assert [label[0] for label in top.labels] == ["P001-TOP", "P001", "OUT CONVEX R4000"]
+    # the mark first, then the part (unique here) and the forming
+    assert [p.mark for p in flat.parts] == ["T001", "T002", "R001"]
+    assert [label[0] for label in top.labels] == ["T001", "P001-TOP", "OUT CONVEX R4000"]
     assert top.forming == "OUT CONVEX R4000" and cone.forming == "OUT CONVEX R866-1501"
     # bend lines stop short of the etched labels (the middle ones run through them)
     from shapely.geometry import LineString

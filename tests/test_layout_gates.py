@@ -153,13 +153,24 @@ def test_the_field_layout_is_deterministic(dish):
     np.testing.assert_array_equal(again.vertices, layout.vertices)
 
 
-def test_auto_keeps_the_better_layout_and_says_why():
+def test_auto_keeps_a_field_layout_that_passes_every_gate_without_making_the_other():
     surface = _annulus(6000.0, 1200.0, 300.0, 160)
-    layout = fp.panelize(surface, _job("1.5 m"))
+    layout = fp.panelize(surface, _job("1.2 m"))
     auto = layout.metrics["auto"]
-    assert auto["chosen"] == layout.method and set(auto["scores"]) == {"skeleton", "field"}
-    assert auto["scores"][layout.method] == max(auto["scores"].values())
-    assert layout.method in auto["reason"]
+    assert layout.method == auto["chosen"] == "field" and set(auto["scores"]) == {"field"}
+    assert "passes every layout gate" in auto["reason"]
+    assert not [i for i in layout.issues if i.code.startswith("layout-")]
+
+
+def test_auto_compares_both_methods_when_the_field_layout_fails_a_gate(tmp_path):
+    # canopy4's field layout has 93 % of its corners within 60-120 degrees (95 % wanted)
+    layout = fp.panelize(_hard_shape("canopy4", tmp_path), _job("1 m"))
+    auto = layout.metrics["auto"]
+    assert set(auto["scores"]) == {"skeleton", "field"}
+    assert auto["chosen"] == layout.method == "field"
+    assert auto["scores"]["field"] == max(auto["scores"].values())
+    assert "layout-corner-angle" in auto["gates_failed"]["field"]
+    assert "field scores" in auto["reason"]
 
 
 def test_a_singular_point_becomes_a_vertex_with_the_field_method():

@@ -113,14 +113,19 @@ def write_part_dxf(part: FlatPart, path: str | Path) -> Path:
 
 
 def write_parts(flat: FlatParts, folder: str | Path) -> dict[str, str]:
-    """Write ``<part id>.dxf`` per part into ``folder``; returns part id -> file name."""
+    """Write one ``<mark>.dxf`` per part mark into ``folder`` (the mark's first part, as every
+    part of the mark is the same within 0.1 mm; ``<part id>.dxf`` for an unmarked part);
+    returns part id -> file name for every part."""
     folder = Path(folder)
-    files = {}
+    files: dict[str, str] = {}
+    written: dict[str, str] = {}
     for part in flat.parts:
-        name = f"{part.id}.dxf"
-        write_part_dxf(part, folder / name)
-        files[part.id] = name
-    log.info("wrote %d part DXF files to %s", len(files), folder)
+        key = part.mark or part.id
+        if key not in written:
+            written[key] = f"{key}.dxf"
+            write_part_dxf(part, folder / written[key])
+        files[part.id] = written[key]
+    log.info("wrote %d part DXF files for %d parts to %s", len(written), len(files), folder)
     return files
 
 

@@ -31,7 +31,7 @@ import math
 import time
 from collections import Counter, defaultdict
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import rectpack
@@ -43,6 +43,7 @@ from ..data import FlatPart, FlatParts, Nests, Placement, Plate
 from ..errors import Issue, SolverError
 from ..geom.polygon import polygon_area, polyline_length
 from ..job import Job
+from .marks import TOLERANCE as MARK_TOLERANCE
 
 log = logging.getLogger(__name__)
 
@@ -59,14 +60,22 @@ FILL_DENSITY = 0.85
 
 Progress = Callable[[float, str], None]
 
+_IDENTITY = np.eye(3)
+
 
 @dataclass(frozen=True)
 class _Item:
-    """A part prepared for packing: grown shape (part frame), allowed rotations."""
+    """A part prepared for packing: grown shape, allowed rotations.
+
+    Parts of one mark share their mark's shape (``key``: the mark), in the frame of the mark's
+    first part; ``to_shape`` (3, 3) maps the part's own flat frame to it, so that spyrrow packs
+    them as one item with a quantity."""
 
     part: FlatPart
     shape: np.ndarray  # (k, 2) float, counter-clockwise, not closed
     rotations: tuple[int, ...]
+    key: str = ""
+    to_shape: np.ndarray = field(default_factory=lambda: np.eye(3))
 
 
 def rotation_matrix(degrees: float) -> np.ndarray:
@@ -139,15 +148,21 @@ def _fitting_rotations(
 def _pack_strip(
     items: list[_Item], height: float, seconds: int, seed: int
 ) -> tuple[list[np.ndarray], float]:
-    """Pack items in a strip; returns one (3, 3) transform (part frame -> strip) per item."""
+    """Pack items in a strip; returns one (3, 3) transform (shape frame -> strip) per item.
+
+    Items of one key (parts of one mark) go to spyrrow as one item with their quantity."""
+    kinds: dict[str, list[int]] = {}
+    for index, item in enumerate(items):
+        kinds.setdefault(item.key or item.part.id, []).append(index)
+    members = list(kinds.values())
     spy_items = [
         spyrrow.Item(
-            str(i),
-            [tuple(p) for p in item.shape.tolist()],
-            demand=1,
-            allowed_orientations=[float(r) for r in item.rotations],
+            str(k),
+            [tuple(p) for p in items[indices[0]].shape.tolist()],
+            demand=len(indices),
+            allowed_orientations=[float(r) for r in items[indices[0]].rotations],
         )
-        for i, item in enumerate(items)
+        for k, indices in enumerate(members)
     ]
     try:
         instance = spyrrow.StripPackingInstance("fabpanel", float(height), spy_items)
@@ -163,11 +178,14 @@ def _pack_strip(
     except BaseException as err:  # spyrrow panics arrive as BaseException
         raise SolverError(f"spyrrow failed to pack {len(items)} parts: {err}") from err
     transforms: list[np.ndarray | None] = [None] * len(items)
+    waiting = [list(indices) for indices in members]
     for placed in solution.placed_items:
         t = np.eye(3)
         t[:2, :2] = rotation_matrix(placed.rotation)
         t[:2, 2] = placed.translation
-        transforms[int(placed.id)] = t
+        queue = waiting[int(placed.id)]
+        if queue:
+            transforms[queue.pop(0)] = t
     placed_transforms: list[np.ndarray] = []
     for transform in transforms:
         if transform is None:
@@ -373,13 +391,23 @@ def _groups(flat: FlatParts, job: Job) -> tuple[dict[tuple[str, float], list[_It
     length, height = _usable(job)
     issues: list[Issue] = []
     groups: dict[tuple[str, float], list[_Item]] = defaultdict(list)
+    frames = _mark_frames(flat)
+    shapes: dict[str, np.ndarray] = {}
     for part in flat.parts:
         try:
             outline = validate_outline(part.outline, part.id)
         except ValueError as err:
             issues.append(Issue("invalid-outline", str(err), part.id, "error"))
             continue
-        shape = packing_shape(outline, _grow(job))
+        key, to_shape, grow = part.id, _IDENTITY, _grow(job)
+        if part.id in frames:  # one shape for the whole mark, in its first part's frame
+            first, to_shape = frames[part.id]
+            key = part.mark
+            outline = validate_outline(first.outline, first.id)
+            grow += MARK_TOLERANCE  # its parts differ from the first by up to this
+        if key not in shapes:
+            shapes[key] = packing_shape(outline, grow)
+        shape = shapes[key]
         rotations = _fitting_rotations(shape, list(cutting.rotations), length, height)
         if not rotations:
             size = outline.max(axis=0) - outline.min(axis=0)
@@ -395,8 +423,24 @@ def _groups(flat: FlatParts, job: Job) -> tuple[dict[tuple[str, float], list[_It
                 )
             )
             continue
-        groups[(part.material, float(part.thickness))].append(_Item(part, shape, rotations))
+        groups[(part.material, float(part.thickness))].append(
+            _Item(part, shape, rotations, key, to_shape)
+        )
     return groups, issues
+
+
+def _mark_frames(flat: FlatParts) -> dict[str, tuple[FlatPart, np.ndarray]]:
+    """Per part of a mark of two or more: the mark's first part and the (3, 3) map from the
+    part's own flat frame to that first part's frame."""
+    by_id = {p.id: p for p in flat.parts}
+    frames = {}
+    for group in flat.marks:
+        if group.quantity < 2 or group.part_ids[0] not in by_id:
+            continue
+        first = by_id[group.part_ids[0]]
+        for part_id, transform in zip(group.part_ids, group.transforms):
+            frames[part_id] = (first, np.linalg.inv(transform))
+    return frames
 
 
 def bounding_box_plates(flat: FlatParts, job: Job) -> dict[tuple[str, float], int]:
@@ -466,7 +510,7 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
                     material=material,
                     thickness=thickness,
                     size=(cutting.plate_length, cutting.plate_width),
-                    placements=tuple(Placement(it.part.id, t) for it, t in members),
+                    placements=tuple(Placement(it.part.id, t @ it.to_shape) for it, t in members),
                     utilisation=used / plate_area,
                 )
             )

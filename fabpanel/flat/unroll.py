@@ -22,7 +22,7 @@ from scipy.spatial import QhullError
 from shapely.geometry import LineString, Polygon
 from shapely.ops import polylabel
 
-from ..data import FlatPart, FlatParts, Model, Part
+from ..data import FlatPart, FlatParts, MarkGroup, Model, Part
 from ..errors import GeometryError, Issue
 from ..geom.flatten import flatten_grid
 from ..geom.polygon import polygon_area
@@ -152,8 +152,6 @@ def unroll_sheet(part: Part) -> FlatPart:
         # a degenerate (sliver) sheet: no bend lines rather than no cutting files
         log.warning("%s: no bend lines (%s)", part.id, err)
         bending = Bending("unknown", np.zeros((0, 2, 2)), np.zeros((0, 2)), False)
-    labels = place_labels(outline, [part.id, part.panel_id, bending.instruction()], angle=0.0)
-    bend_lines = lines_around_labels(bending.lines, labels)
     holes = tuple(
         dataclasses.replace(h, centre=tuple(grid_point(uv, *h.centre))) for h in part.holes
     )
@@ -165,8 +163,7 @@ def unroll_sheet(part: Part) -> FlatPart:
         thickness=part.thickness,
         outline=outline,
         round_holes=holes,
-        bend_lines=bend_lines,
-        labels=labels,
+        bend_lines=bending.lines,  # cut round the labels once they are placed (labelled)
         max_strain=strain,
         forming=bending.instruction(),
         edge_lengths_flat=lengths_flat,
@@ -187,7 +184,6 @@ def flat_plate(part: Part, face: str = "") -> FlatPart:
         outline = outline[:-1]
     if polygon_area(outline) < 0:
         outline = outline[::-1].copy()
-    labels = place_labels(outline, [part.id, part.panel_id] + ([face] if face else []))
     return FlatPart(
         id=part.id,
         kind=part.kind,
@@ -196,8 +192,24 @@ def flat_plate(part: Part, face: str = "") -> FlatPart:
         thickness=part.thickness,
         outline=outline,
         round_holes=tuple(part.holes),
-        labels=labels,
         max_strain=0.0,
+        face=face,
+    )
+
+
+def labelled(part: FlatPart, quantity: int) -> FlatPart:
+    """The part with its etched labels: its mark; its id, or the quantity cut to the mark
+    (``24 OFF``); the forming instruction (sheets) or the way the drawn face looks (plates).
+    Bend lines stop short of the labels."""
+    second = part.id if quantity == 1 else f"{quantity} OFF"
+    third = part.forming or part.face
+    lines = [part.mark or part.id, second] + ([third] if third else [])
+    if part.kind.startswith("sheet"):
+        labels = place_labels(part.outline, lines, angle=0.0)
+    else:
+        labels = place_labels(part.outline, lines)
+    return dataclasses.replace(
+        part, labels=labels, bend_lines=lines_around_labels(part.bend_lines, labels)
     )
 
 
@@ -270,6 +282,7 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
         )
         for flat in flats
     ]
+    flats, marks = _marked(flats)
     for part, flat in zip(model.parts, flats):
         if flat.max_strain > tolerance:
             issues.append(
@@ -292,6 +305,8 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
             )
         parts.append(flat)
     sheets = [p for p in parts if p.edge_lengths_flat is not None]
+    quantities = Counter(p.mark for p in parts)
+    kind_of = {p.id: p.kind for p in parts}
     edge_error = max((_edge_length_error(p) for p in sheets), default=0.0)
     metrics = {
         "parts": len(parts),
@@ -302,6 +317,9 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
         "bend_lines": int(sum(len(p.bend_lines) for p in parts)),
         "drill_holes": int(sum(len(p.drill_holes) for p in parts)),
         "area_mm2": float(sum(p.area for p in parts)),
+        "marks": len(marks),
+        "marks_by_kind": dict(Counter(kind_of[group.part_ids[0]] for group in marks)),
+        "largest_quantity": max(quantities.values(), default=0),
     }
     log.info(
         "cut: %d flat parts, max strain %.2e, edge length error %.3f mm",
@@ -309,7 +327,20 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
         metrics["max_strain"],
         edge_error,
     )
-    return FlatParts(parts=tuple(parts), metrics=metrics, issues=tuple(issues))
+    return FlatParts(parts=tuple(parts), metrics=metrics, issues=tuple(issues), marks=marks)
+
+
+def _marked(flats: list[FlatPart]) -> tuple[list[FlatPart], tuple[MarkGroup, ...]]:
+    """The parts with their marks and labels, and the marks (:mod:`.marks`)."""
+    from .marks import mark_groups
+
+    groups = mark_groups(flats)
+    mark_of = {pid: group for group in groups for pid in group.part_ids}
+    marked = [
+        labelled(dataclasses.replace(flat, mark=mark_of[flat.id].mark), mark_of[flat.id].quantity)
+        for flat in flats
+    ]
+    return marked, groups
 
 
 __all__ = [

@@ -58,19 +58,49 @@ def panelize(surface: Surface, job: Job, query: SurfaceQuery | None = None) -> P
     query = query or SurfaceQuery(surface)
     method = choose_method(surface, job)
     if method == "compare":
-        layout = _better_layout(surface, job, query, ("skeleton", "field"))
+        layout = _first_passing(surface, job, query, ("field", "skeleton"))
     else:
         layout = _gated(_layout_by_method(method, surface, job, query), surface, job)
         asked_counts = job.panelize.grid_u is not None or job.panelize.grid_v is not None
-        if job.panelize.method == "auto" and not asked_counts and _fails_a_gate(layout):
-            # a four-sided outline can still be a poor grid (a wavy strip, a notch): the
+        if job.panelize.method == "auto" and not asked_counts:
+            # a four-sided outline can still be a poor grid (a wavy strip, a notch): then the
             # field layout is made too and the better one kept
-            layout = _better_layout(surface, job, query, ("grid", "field"), {"grid": layout})
+            layout = _first_passing(surface, job, query, ("grid", "field"), layout)
     return replace(layout, origin=surface.origin)
 
 
+def _first_passing(
+    surface: Surface,
+    job: Job,
+    query: SurfaceQuery,
+    methods: tuple[str, str],
+    first: PanelLayout | None = None,
+) -> PanelLayout:
+    """The first method's layout if it passes every gate, else the better of both."""
+    if first is None:
+        try:
+            first = _gated(_layout_by_method(methods[0], surface, job, query), surface, job)
+        except GeometryError:
+            return _better_layout(surface, job, query, methods)
+    if _fails_a_gate(first):
+        return _better_layout(surface, job, query, methods, {methods[0]: first})
+    score = first.metrics["gates"]["score"]
+    auto = {
+        "chosen": methods[0],
+        "scores": {methods[0]: score},
+        "failed": {},
+        "reason": f"{methods[0]} passes every layout gate (score {score:.3f}); "
+        f"{methods[1]} not tried",
+    }
+    return replace(first, metrics={**first.metrics, "auto": auto})
+
+
+def _failed_gates(layout: PanelLayout) -> list[str]:
+    return sorted({i.code for i in layout.issues if i.code.startswith("layout-")})
+
+
 def _fails_a_gate(layout: PanelLayout) -> bool:
-    return any(issue.code.startswith("layout-") for issue in layout.issues)
+    return bool(_failed_gates(layout))
 
 
 #: boundary vertices closer than this fraction of the panel size to the design boundary are
@@ -125,6 +155,7 @@ def _better_layout(
         raise GeometryError(" / ".join(failed.values()))
     scores = {m: layout.metrics["gates"]["score"] for m, layout in made.items()}
     best = max(scores, key=lambda m: (scores[m], m == methods[0]))
+    gates_failed = {m: _failed_gates(layout) for m, layout in made.items()}
     if failed:
         reason = f"{best}: the other method failed ({next(iter(failed.values()))})"
     elif len(scores) > 1:
@@ -135,7 +166,13 @@ def _better_layout(
     else:
         reason = best
     chosen = made[best]
-    auto = {"chosen": best, "scores": scores, "failed": failed, "reason": reason}
+    auto = {
+        "chosen": best,
+        "scores": scores,
+        "failed": failed,  # methods that raised (could not make a layout), with why
+        "gates_failed": gates_failed,  # per method made, the layout gates it fails
+        "reason": reason,
+    }
     log.info("auto layout: %s", reason)
     return replace(chosen, metrics={**chosen.metrics, "auto": auto})
 

@@ -127,8 +127,10 @@ def _names(layout: PanelLayout, panels: np.ndarray) -> str:
 def gate_issues(layout: PanelLayout, measures: dict, job: Job) -> tuple[Issue, ...]:
     """Issues for every gate the layout fails, naming the panels and the likely fix."""
     target = job.panelize.panel_size
-    other = "skeleton" if layout.method == "field" else "field"
-    fix = f'try [panelize] method = "{other}" or another panel_size'
+    if layout.method == "field":  # the skeleton is rarely better where the field fails
+        fix = 'try a smaller panel_size, or draw the layout (method = "layout")'
+    else:
+        fix = 'try [panelize] method = "field" or another panel_size'
     corners = layout.vertices[layout.quads]
     issues: list[Issue] = []
     min_width = job.panelize.min_panel_width or MIN_WIDTH * target
@@ -140,7 +142,8 @@ def gate_issues(layout: PanelLayout, measures: dict, job: Job) -> tuple[Issue, .
                 "layout-narrow-panel",
                 f"{len(narrow)} panel(s) narrower than {min_width:.0f} mm (narrowest "
                 f"{widths.min():.0f} mm): {_names(layout, narrow[np.argsort(widths[narrow])])}; "
-                f"their ribs and stiffeners would meet, {fix}",
+                f"their ribs and stiffeners would meet; {fix}, or lower [panelize] "
+                f"min_panel_width if such panels can be built",
                 layout.panel_ids[int(narrow[np.argmin(widths[narrow])])],
                 "error",
             )
