@@ -155,3 +155,33 @@ def test_plates_say_which_face_looks_into_the_panel(cone_run):
         assert height.min() > -1e-6
         assert height.max() == pytest.approx(plate.thickness, abs=1e-6)
         assert (centre[plate.panel_id] - frame[:3, 3]) @ frame[:3, 2] > 0
+
+
+def _glyph_boxes(labels):
+    """The area the etched strokes of each label line take (no border)."""
+    from shapely.geometry import Polygon
+
+    from fabpanel.flat.strokefont import text_width
+
+    boxes = []
+    for text, x, y, height, angle in labels:
+        half = np.array([text_width(text, height) / 2, height / 2])
+        corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * half
+        turn = np.radians(angle)
+        rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+        boxes.append(Polygon(corners @ rotation.T + [x, y]))
+    return boxes
+
+
+def test_no_label_is_crossed_by_a_hole_an_opening_or_the_outline(cone_run):
+    from shapely.geometry import Polygon
+
+    from fabpanel.flat.unroll import hole_areas
+
+    _, flat = cone_run
+    for part in flat.parts:
+        holes = hole_areas(part, 0.0)
+        inside = Polygon(part.outline)
+        for box in _glyph_boxes(part.labels):
+            assert inside.contains(box), (part.id, box.bounds)
+            assert not box.intersects(holes), (part.id, box.bounds)

@@ -19,7 +19,7 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 from scipy.spatial import QhullError
-from shapely.geometry import LineString, Polygon
+from shapely.geometry import LineString, Point, Polygon
 from shapely.ops import polylabel
 
 from ..data import FlatPart, FlatParts, MarkGroup, Model, Part
@@ -35,6 +35,8 @@ log = logging.getLogger(__name__)
 
 #: label cap height limits, mm (15-30 mm reads well on a shop floor)
 LABEL_HEIGHT = (4.0, 30.0)
+#: etched text keeps this clear of every hole and opening, mm (a cut edge would cross it)
+LABEL_CLEARANCE = 3.0
 
 
 def grid_sides(grid: np.ndarray) -> list[np.ndarray]:
@@ -53,14 +55,22 @@ def grid_outline(uv: np.ndarray) -> np.ndarray:
 
 
 def place_labels(
-    outline: np.ndarray, lines: list[str], angle: float | None = None
+    outline: np.ndarray,
+    lines: list[str],
+    angle: float | None = None,
+    obstacles: shapely.Geometry | None = None,
 ) -> tuple[tuple[str, float, float, float, float], ...]:
-    """Stack text lines inside a polygon at its pole of inaccessibility.
+    """Stack text lines inside a polygon at the pole of inaccessibility of its free area.
 
     outline : (n, 2) float, mm. ``angle`` (degrees) defaults to the outline's principal axis.
+    obstacles : what the text must keep clear of (holes, openings), already grown by the
+        clearance wanted; the free area is the outline less these.
     Returns ``(text, x, y, height, angle_deg)`` per line, centred, cap height in ``LABEL_HEIGHT``.
     """
     polygon = Polygon(outline).buffer(0)
+    if obstacles is not None and not polygon.is_empty:
+        free = polygon.difference(obstacles)
+        polygon = free if not free.is_empty else polygon
     if polygon.is_empty:
         return ()
     if polygon.geom_type == "MultiPolygon":
@@ -93,6 +103,16 @@ def place_labels(
         (text, *(centre + off * normal).tolist(), float(height), float(angle))
         for text, off in zip(lines, offsets)
     )
+
+
+def hole_areas(part: FlatPart, clearance: float) -> shapely.Geometry:
+    """Every hole, opening and drill hole of a part, grown by ``clearance`` mm."""
+    shapes = [Polygon(h).buffer(clearance) for h in part.holes]
+    shapes += [
+        Point(h.centre).buffer(h.diameter / 2 + clearance, quad_segs=8)
+        for h in (*part.round_holes, *part.drill_holes)
+    ]
+    return shapely.union_all(shapes) if shapes else Polygon()
 
 
 def label_boxes(labels) -> shapely.Geometry:
@@ -204,10 +224,11 @@ def labelled(part: FlatPart, quantity: int) -> FlatPart:
     second = part.id if quantity == 1 else f"{quantity} OFF"
     third = part.forming or part.face
     lines = [part.mark or part.id, second] + ([third] if third else [])
+    obstacles = hole_areas(part, LABEL_CLEARANCE)
     if part.kind.startswith("sheet"):
-        labels = place_labels(part.outline, lines, angle=0.0)
+        labels = place_labels(part.outline, lines, angle=0.0, obstacles=obstacles)
     else:
-        labels = place_labels(part.outline, lines)
+        labels = place_labels(part.outline, lines, obstacles=obstacles)
     return dataclasses.replace(
         part, labels=labels, bend_lines=lines_around_labels(part.bend_lines, labels)
     )
