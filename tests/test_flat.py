@@ -174,6 +174,17 @@ def test_cut_sheets_and_ribs(tmp_path):
         path = tmp_path / files[part.id]
         assert audit_dxf(path) == []
         np.testing.assert_allclose(part_area_from_dxf(path), part.area, rtol=1e-4)
+        # the header's extents hold the drawing (a viewer zooms to them)
+        import ezdxf
+
+        header = ezdxf.readfile(path).header
+        low, high = part.outline.min(axis=0), part.outline.max(axis=0)
+        assert np.all(np.asarray(header["$EXTMIN"])[:2] <= low + 1e-6)
+        assert np.all(np.asarray(header["$EXTMAX"])[:2] >= high - 1e-6)
+        assert np.all(
+            np.asarray(header["$EXTMAX"])[:2] - np.asarray(header["$EXTMIN"])[:2]
+            < (high - low) + 50
+        )
 
 
 def skewed_cylinder_grid(a: int = 33, b: int = 33) -> np.ndarray:

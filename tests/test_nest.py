@@ -148,9 +148,13 @@ def test_write_nests(mixed, tmp_path):
         assert (tmp_path / png).stat().st_size > 1000
     import ezdxf
 
-    msp = ezdxf.readfile(tmp_path / files["plate-001"][0]).modelspace()
+    doc = ezdxf.readfile(tmp_path / files["plate-001"][0])
+    msp = doc.modelspace()
     layers = [e.dxf.layer for e in msp]
     assert layers[0] == "PLATE"
+    # the header's extents are the plate (its outline is the outermost entity)
+    np.testing.assert_allclose(doc.header["$EXTMIN"][:2], [0.0, 0.0], atol=1e-6)
+    np.testing.assert_allclose(doc.header["$EXTMAX"][:2], nests.plates[0].size, atol=1e-6)
     # cut order: etching, then each part's holes before its outer contour: every inner contour
     # lies inside the next outer contour in the file
     from shapely.geometry import Point, Polygon

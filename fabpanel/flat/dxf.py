@@ -99,10 +99,26 @@ def save(doc, path: str | Path) -> Path:
     if auditor.has_errors:
         messages = "; ".join(str(e.message) for e in auditor.errors[:5])
         raise RuntimeError(f"DXF audit of {path} failed: {messages}")
+    _set_extents(doc)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     doc.saveas(path)
     return path
+
+
+def _set_extents(doc) -> None:
+    """$EXTMIN/$EXTMAX from the drawing's entities: a viewer or CAM program that trusts the
+    header (rather than scanning the file) zooms to the parts."""
+    from ezdxf import bbox
+
+    msp = doc.modelspace()
+    box = bbox.extents(msp, fast=True)
+    if box.has_data:
+        low, high = (box.extmin.x, box.extmin.y, 0.0), (box.extmax.x, box.extmax.y, 0.0)
+        # ezdxf copies the layout's extents into the header when it writes the file, unless
+        # one of them is the zero vector (then the header's stay): set both
+        msp.dxf.extmin, msp.dxf.extmax = low, high
+        doc.header["$EXTMIN"], doc.header["$EXTMAX"] = low, high
 
 
 def write_part_dxf(part: FlatPart, path: str | Path) -> Path:
