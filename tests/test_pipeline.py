@@ -71,14 +71,26 @@ def test_output_contract(vault_run):
     for panel in manifest["panels"]:
         assert (out / "model" / "panels" / f"{panel['id']}.step").is_file()
         assert panel["class"] == "single-curved"
+    marks = {m["mark"]: m for m in manifest["marks"]}
+    assert sum(m["quantity"] for m in marks.values()) == len(manifest["parts"])
     for part in manifest["parts"]:
-        assert (out / "cut" / "parts" / f"{part['id']}.dxf").is_file()
+        # one DXF per mark, shared by the mark's parts
+        mark = part["flat"]["mark"]
+        assert part["id"] in marks[mark]["parts"]
+        assert part["files"] and all((out / f).is_file() for f in part["files"])
+        assert f"cut/parts/{mark}.dxf" in part["files"]
         assert part["plate"] is not None
+    assert len(list((out / "cut" / "parts").glob("*.dxf"))) == len(marks) < len(manifest["parts"])
+    with (out / "marks.csv").open() as handle:
+        summary = list(csv.DictReader(handle))
+    assert sorted(r["mark"] for r in summary) == sorted(marks)
+    assert sum(int(r["quantity"]) for r in summary) == len(manifest["parts"])
     plates = sorted((out / "cut" / "nests").glob("plate-*.dxf"))
     assert plates and all(p.with_suffix(".png").is_file() for p in plates)
     with (out / "bom.csv").open() as handle:
         rows = list(csv.DictReader(handle))
     assert [r["part"] for r in rows] == [p["id"] for p in manifest["parts"]]
+    assert all(int(r["quantity"]) == marks[r["mark"]]["quantity"] for r in rows)
     mass = sum(float(r["mass_kg"]) for r in rows)
     assert mass == pytest.approx(vault_run.model.mass, rel=1e-4)
     # the vault's sheets roll with their outer faces convex, at their mid-fibre radii
@@ -167,7 +179,8 @@ def test_every_dxf_passes_audit(vault_run):
     from fabpanel.flat.dxf import audit_dxf
 
     files = sorted((vault_run.out_dir / "cut").rglob("*.dxf"))
-    assert len(files) > 6 * GRID_U * GRID_V
+    # a DXF per part mark and per plate
+    assert len(files) == len(vault_run.flat.marks) + len(vault_run.nests.plates)
     for path in files:
         assert audit_dxf(path) == [], path.name
 
