@@ -48,6 +48,10 @@ ACCESS_MIN_CLEAR = 3.0
 #: a plate is not cut at another plate's plane whose normal has less than this component along
 #: the plate (sin 30 degrees): that plane runs along the plate instead of across its end
 TANGENT_RIB = 0.5
+#: the same for a corner stiffener against its two ribs: it meets them at half the corner's
+#: supplement (45 degrees at a right corner, 30 at 120, 15 at 150), so only a corner flatter
+#: than 170 degrees leaves its ends uncut (sin 5 degrees)
+TANGENT_STIFFENER = 0.087
 #: corners opening wider than this get no stiffener (degrees): the two ribs are nearly one line
 MAX_STIFFENED_ANGLE = 150.0
 #: points per access opening outline (a periodic cubic through 24 points is within 1e-4 mm of
@@ -501,7 +505,9 @@ def _stiffener(
     for face, top in ((top_inner, True), (bottom_upper, False)):
         chains.append(_section_edge(face, plane, frame, t_stf, span, top, name))
     for other in (before, after):
-        chains = _trim_chains(chains, frame, planes[other], t_rib, t_stf, name, other)
+        chains = _trim_chains(
+            chains, frame, planes[other], t_rib, t_stf, name, other, TANGENT_STIFFENER
+        )
     return _plate(name, "stiffener", chains, frame, t_stf, plane, [])
 
 
@@ -611,11 +617,14 @@ def _trim_chains(
     thickness: float,
     name: str,
     other: int,
+    tangent: float = 0.0,
 ) -> list[np.ndarray]:
     """Cut both edge chains of a plate (extruded ``thickness`` along the frame's z) where the
-    whole plate thickness stays ``inset`` mm inside ``plane`` (normal into the panel)."""
+    whole plate thickness stays ``inset`` mm inside ``plane`` (normal into the panel); not
+    where the plane's normal has less than ``tangent`` (default ``TANGENT_RIB``) along the
+    plate."""
     a, b, c = (plane[:3] @ frame[:3, i] for i in range(3))
-    if abs(a) < TANGENT_RIB:
+    if abs(a) < (tangent or TANGENT_RIB):
         # the other plate's plane runs along this one (a boundary rib plane nearly tangent to
         # the sheet, reported as rib-plane-tangent): a cut there would remove the whole plate
         return chains
