@@ -52,6 +52,9 @@ TANGENT_RIB = 0.5
 #: supplement (45 degrees at a right corner, 30 at 120, 15 at 150), so only a corner flatter
 #: than 170 degrees leaves its ends uncut (sin 5 degrees)
 TANGENT_STIFFENER = 0.087
+#: a rib plane tilted more than 30 degrees from the sheet normal (sin 30 degrees): its
+#: stiffeners keep the ribs' rule
+RIB_TILT_SIN = 0.5
 #: corners opening wider than this get no stiffener (degrees): the two ribs are nearly one line
 MAX_STIFFENED_ANGLE = 150.0
 #: points per access opening outline (a periodic cubic through 24 points is within 1e-4 mm of
@@ -505,9 +508,12 @@ def _stiffener(
     for face, top in ((top_inner, True), (bottom_upper, False)):
         chains.append(_section_edge(face, plane, frame, t_stf, span, top, name))
     for other in (before, after):
-        chains = _trim_chains(
-            chains, frame, planes[other], t_rib, t_stf, name, other, TANGENT_STIFFENER
-        )
+        # a rib tilted far from the sheet normal keeps the ribs' rule (a cut at its plane can
+        # remove the whole stiffener); a rib standing square to the sheet is met at half the
+        # corner's supplement, and cut however obtuse the corner
+        tilted = abs(planes[other][:3] @ normal) > RIB_TILT_SIN
+        tangent = TANGENT_RIB if tilted else TANGENT_STIFFENER
+        chains = _trim_chains(chains, frame, planes[other], t_rib, t_stf, name, other, tangent)
     return _plate(name, "stiffener", chains, frame, t_stf, plane, [])
 
 
