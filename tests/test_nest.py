@@ -67,6 +67,13 @@ def test_nest_is_valid_over_several_plates(mixed):
     assert sorted(placed) == sorted(p.id for p in flat.parts)
     m = nests.metrics
     assert m["plates_lower_bound"] <= m["plates"] <= m["bounding_box_plates"]
+    # steel bought (whole 2000 x 1000 x 3 mm plates) against steel in the parts
+    density = JOB.material.density
+    assert m["bought_kg"] == pytest.approx(m["plates"] * 2000 * 1000 * 3.0 * density, abs=0.01)
+    net = sum(p.area for p in flat.parts) * 3.0 * density
+    assert m["net_kg"] == pytest.approx(net, abs=0.01)
+    assert m["net_kg"] / m["bought_kg"] == pytest.approx(m["utilisation"], rel=1e-3)
+    assert m["bought_to_net"] == pytest.approx(m["bought_kg"] / m["net_kg"], abs=1e-3)
     assert m["bounding_box_plates"] == sum(bounding_box_plates(flat, JOB).values())
     assert 0 < m["utilisation"] <= 1
     assert m["pierces"] == 20 + 8

@@ -514,12 +514,15 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
                     utilisation=used / plate_area,
                 )
             )
+        kg_per_mm2 = thickness * float(job.material.density)
         group_metrics.append(
             {
                 "material": material,
                 "thickness_mm": thickness,
                 "parts": len(items),
                 "plates": len(layout),
+                "bought_kg": round(len(layout) * plate_area * kg_per_mm2, 2),
+                "net_kg": round(area * kg_per_mm2, 2),
                 "plates_lower_bound": bound,
                 "bounding_box_plates": box_plates,
                 "time_s": round(time.perf_counter() - group_start, 3),
@@ -549,8 +552,14 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
         "cut_length_mm": float(sum(cut_length(p) for p in placed)),
         "pierces": int(sum(pierces(p) for p in placed)),
         "time_s": round(time.perf_counter() - started, 3),
+        # steel bought (whole plates) against steel in the parts (net flat areas)
+        "bought_kg": round(sum(g["bought_kg"] for g in group_metrics), 2),
+        "net_kg": round(sum(g["net_kg"] for g in group_metrics), 2),
         "groups": group_metrics,
     }
+    metrics["bought_to_net"] = (
+        round(metrics["bought_kg"] / metrics["net_kg"], 3) if metrics["net_kg"] else None
+    )
     return Nests(plates=tuple(plates), metrics=metrics, issues=tuple(issues))
 
 
