@@ -508,108 +508,87 @@ def build_manifest(result: Result, files: dict[str, list[str]]) -> dict:
     }
 
 
-def _write_bom(result: Result, path: Path, files: dict[str, list[str]]) -> None:
-    from .flat.nest import cut_length, pierces
+#: the columns of bom.csv (one row per part) and marks.csv (one row per part mark): an output
+#: contract other tools read
+BOM_COLUMNS = (
+    "part", "mark", "quantity", "kind", "panel", "material", "thickness_mm", "flat_area_mm2",
+    "volume_mm3", "mass_kg", "flat_length_mm", "flat_width_mm", "max_strain", "forming",
+    "cut_length_mm", "pierces", "plate", "files",
+)  # fmt: skip
+MARK_COLUMNS = (
+    "mark", "quantity", "kind", "material", "thickness_mm", "flat_length_mm", "flat_width_mm",
+    "flat_area_mm2", "mass_kg_each", "mass_kg_total", "forming", "file", "parts",
+)  # fmt: skip
 
-    flat_by_id, plate_of = _flat_and_plate_of(result)
+
+def _write_csv(path: Path, columns: tuple[str, ...], rows) -> None:
     with path.open("w", newline="") as handle:
         writer = csv.writer(handle)
-        writer.writerow(
-            [
-                "part",
-                "mark",
-                "quantity",
-                "kind",
-                "panel",
-                "material",
-                "thickness_mm",
-                "flat_area_mm2",
-                "volume_mm3",
-                "mass_kg",
-                "flat_length_mm",
-                "flat_width_mm",
-                "max_strain",
-                "forming",
-                "cut_length_mm",
-                "pierces",
-                "plate",
-                "files",
-            ]
-        )
-        if result.model is None:
-            return
-        quantity = (
-            {m.mark: m.quantity for m in result.flat.marks} if result.flat is not None else {}
-        )
-        for part in result.model.parts:
-            flat = flat_by_id.get(part.id)
-            size = np.ptp(flat.outline, axis=0) if flat is not None else (None, None)
-            writer.writerow(
-                [
-                    part.id,
-                    flat.mark if flat is not None else "",
-                    quantity.get(flat.mark, "") if flat is not None else "",
-                    part.kind,
-                    part.panel_id,
-                    part.material,
-                    f"{part.thickness:g}",
-                    f"{flat.area:.1f}" if flat is not None else f"{part.area:.1f}",
-                    f"{part.volume:.1f}",
-                    f"{part.mass:.4f}",
-                    f"{size[0]:.1f}" if flat is not None else "",
-                    f"{size[1]:.1f}" if flat is not None else "",
-                    f"{flat.max_strain:.2e}" if flat is not None else "",
-                    flat.forming if flat is not None else "",
-                    f"{cut_length(flat):.1f}" if flat is not None else "",
-                    pierces(flat) if flat is not None else "",
-                    plate_of.get(part.id, ""),
-                    " ".join(files.get(part.id, [])),
-                ]
-            )
+        writer.writerow(columns)
+        writer.writerows(rows)
+
+
+def _write_bom(result: Result, path: Path, files: dict[str, list[str]]) -> None:
+    _write_csv(path, BOM_COLUMNS, _bom_rows(result, files))
+
+
+def _bom_rows(result: Result, files: dict[str, list[str]]):
+    from .flat.nest import cut_length, pierces
+
+    if result.model is None:
+        return
+    flat_by_id, plate_of = _flat_and_plate_of(result)
+    quantity = {m.mark: m.quantity for m in result.flat.marks} if result.flat is not None else {}
+    for part in result.model.parts:
+        flat = flat_by_id.get(part.id)
+        size = np.ptp(flat.outline, axis=0) if flat is not None else (None, None)
+        yield [
+            part.id,
+            flat.mark if flat is not None else "",
+            quantity.get(flat.mark, "") if flat is not None else "",
+            part.kind,
+            part.panel_id,
+            part.material,
+            f"{part.thickness:g}",
+            f"{flat.area:.1f}" if flat is not None else f"{part.area:.1f}",
+            f"{part.volume:.1f}",
+            f"{part.mass:.4f}",
+            f"{size[0]:.1f}" if flat is not None else "",
+            f"{size[1]:.1f}" if flat is not None else "",
+            f"{flat.max_strain:.2e}" if flat is not None else "",
+            flat.forming if flat is not None else "",
+            f"{cut_length(flat):.1f}" if flat is not None else "",
+            pierces(flat) if flat is not None else "",
+            plate_of.get(part.id, ""),
+            " ".join(files.get(part.id, [])),
+        ]
 
 
 def _write_marks(result: Result, path: Path, files: dict[str, list[str]]) -> None:
     """One row per part mark: what the shop cuts, how many, what it weighs, where they go."""
+    _write_csv(path, MARK_COLUMNS, _mark_rows(result, files))
+
+
+def _mark_rows(result: Result, files: dict[str, list[str]]):
     assert result.flat is not None and result.model is not None
     flat_by_id = {p.id: p for p in result.flat.parts}
     model_by_id = {p.id: p for p in result.model.parts}
-    with path.open("w", newline="") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(
-            [
-                "mark",
-                "quantity",
-                "kind",
-                "material",
-                "thickness_mm",
-                "flat_length_mm",
-                "flat_width_mm",
-                "flat_area_mm2",
-                "mass_kg_each",
-                "mass_kg_total",
-                "forming",
-                "file",
-                "parts",
-            ]
-        )
-        for group in result.flat.marks:
-            first = flat_by_id[group.part_ids[0]]
-            mass = [model_by_id[i].mass for i in group.part_ids if i in model_by_id]
-            size = np.ptp(first.outline, axis=0)
-            writer.writerow(
-                [
-                    group.mark,
-                    group.quantity,
-                    first.kind,
-                    first.material,
-                    f"{first.thickness:g}",
-                    f"{size[0]:.1f}",
-                    f"{size[1]:.1f}",
-                    f"{first.area:.1f}",
-                    f"{np.mean(mass):.4f}" if mass else "",
-                    f"{np.sum(mass):.4f}" if mass else "",
-                    first.forming or first.face,
-                    " ".join(files.get(first.id, [])),
-                    " ".join(group.part_ids),
-                ]
-            )
+    for group in result.flat.marks:
+        first = flat_by_id[group.part_ids[0]]
+        mass = [model_by_id[i].mass for i in group.part_ids if i in model_by_id]
+        size = np.ptp(first.outline, axis=0)
+        yield [
+            group.mark,
+            group.quantity,
+            first.kind,
+            first.material,
+            f"{first.thickness:g}",
+            f"{size[0]:.1f}",
+            f"{size[1]:.1f}",
+            f"{first.area:.1f}",
+            f"{np.mean(mass):.4f}" if mass else "",
+            f"{np.sum(mass):.4f}" if mass else "",
+            first.forming or first.face,
+            " ".join(files.get(first.id, [])),
+            " ".join(group.part_ids),
+        ]

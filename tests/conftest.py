@@ -112,3 +112,14 @@ def hypar_patch(tmp_path, n=48, half=2.4, c=8.0):
         np.linspace(-half, half, n + 1), np.linspace(-half, half, n + 1), indexing="ij"
     )
     return grid_surface(tmp_path, "hypar", np.stack([x, y, (x**2 - y**2) / (2 * c)], -1))
+
+
+def unit_quad_grid(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The regular n x n grid of unit quads on [0, n]²: points (n + 1)², quads (n², 4)
+    counter-clockwise, and which points are interior."""
+    ij = np.stack(np.meshgrid(np.arange(n + 1.0), np.arange(n + 1.0), indexing="ij"), -1)
+    ids = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
+    quads = np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], -1).reshape(-1, 4)
+    interior = np.zeros((n + 1) ** 2, dtype=bool)
+    interior[ids[1:-1, 1:-1].ravel()] = True
+    return ij.reshape(-1, 2), quads, interior

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from conftest import unit_quad_grid
 from scipy.optimize import check_grad
 
 from fabpanel.panelize.slide import BoundaryTrack, SlidingNodes
@@ -56,29 +57,25 @@ def test_points_on_the_loops_are_found_again_and_corners_are_recognised():
     np.testing.assert_allclose(track.at(wrapped)[0], probe[4:5], atol=1e-9)
 
 
-def _grid(n: int):
-    ij = np.stack(np.meshgrid(np.arange(n + 1.0), np.arange(n + 1.0), indexing="ij"), -1)
-    ids = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
-    quads = np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], -1).reshape(-1, 4)
-    boundary = np.ones((n + 1) ** 2, dtype=bool)
-    boundary[ids[1:-1, 1:-1].ravel()] = False
-    return ij.reshape(-1, 2), quads, boundary
-
-
 def _sheared(n: int, amount: float):
     """The regular n x n grid on [0, n]² with every node moved by amount x (sin(pi x / n),
     sin(pi y / n)): boundary nodes move along their sides, corners stay, boundary quads lean."""
-    points, quads, boundary = _grid(n)
+    points, quads, interior = unit_quad_grid(n)
     sheared = points + amount * np.sin(np.pi * points / n)
-    return points, sheared, quads, boundary
+    return points, sheared, quads, ~interior
+
+
+def _sliding_on_square(n: int, sheared: np.ndarray, boundary: np.ndarray, step: float):
+    """The square [0, n]² as the track (sampled every ``step``), its boundary nodes on it."""
+    square, corners = _square_loop(float(n), step)
+    track = BoundaryTrack.from_loops([square], [corners])
+    return SlidingNodes.on_track(track, sheared, np.flatnonzero(boundary), 1e-6)
 
 
 def test_leaning_boundary_quads_are_squared_by_sliding_nodes():
     n = 6
     regular, sheared, quads, boundary = _sheared(n, 0.35)
-    square, corners = _square_loop(float(n), 1.0)
-    track = BoundaryTrack.from_loops([square], [corners])
-    sliding = SlidingNodes.on_track(track, sheared, np.flatnonzero(boundary), 1e-6)
+    sliding = _sliding_on_square(n, sheared, boundary, 1.0)
     assert len(sliding.ids) == 4 * (n - 1)  # every boundary node but the four corners
     fixed_only, _ = untangle(sheared, quads, ~boundary)
     out, info = untangle(sheared, quads, ~boundary, sliding=sliding)
@@ -98,9 +95,7 @@ def test_leaning_boundary_quads_are_squared_by_sliding_nodes():
 def test_gradient_with_sliding_nodes_matches_finite_differences():
     n = 3
     _, sheared, quads, boundary = _sheared(n, 0.3)
-    square, corners = _square_loop(float(n), 0.5)
-    track = BoundaryTrack.from_loops([square], [corners])
-    sliding = SlidingNodes.on_track(track, sheared, np.flatnonzero(boundary), 1e-6)
+    sliding = _sliding_on_square(n, sheared, boundary, 0.5)
     movable = ~boundary
     args = (sheared, movable, _corners(quads), 1.1, 0.1, sliding)
     x = np.concatenate([sheared[movable].ravel(), sliding.t + 0.05])

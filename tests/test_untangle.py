@@ -3,22 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
+from conftest import unit_quad_grid
 from scipy.optimize import check_grad
 
 from fabpanel.panelize.untangle import _corners, _energy_and_gradient, corner_determinants, untangle
 
 
-def _grid(n: int):
-    ij = np.stack(np.meshgrid(np.arange(n + 1.0), np.arange(n + 1.0), indexing="ij"), -1)
-    ids = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
-    quads = np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], -1).reshape(-1, 4)
-    movable = np.zeros((n + 1) ** 2, dtype=bool)
-    movable[ids[1:-1, 1:-1].ravel()] = True
-    return ij.reshape(-1, 2), quads, movable
-
-
 def test_gradient_matches_finite_differences():
-    points, quads, movable = _grid(3)
+    points, quads, movable = unit_quad_grid(3)
     points[movable] += np.random.default_rng(0).normal(0.0, 0.4, (movable.sum(), 2))
     args = (points, movable, _corners(quads), 1.3, 0.1)
     x = points[movable].ravel()
@@ -29,7 +21,7 @@ def test_gradient_matches_finite_differences():
 
 
 def test_badly_folded_grid_becomes_the_regular_grid():
-    points, quads, movable = _grid(6)
+    points, quads, movable = unit_quad_grid(6)
     tangled = points.copy()
     rng = np.random.default_rng(1)
     # throw the interior vertices about: many corners folded
@@ -44,7 +36,7 @@ def test_badly_folded_grid_becomes_the_regular_grid():
 
 def test_non_convex_domain_is_untangled():
     # an L-shaped block of quads whose interior starts collapsed onto one point
-    points, quads, movable = _grid(6)
+    points, quads, movable = unit_quad_grid(6)
     keep = ~((points[quads].mean(axis=1)[:, 0] > 3) & (points[quads].mean(axis=1)[:, 1] > 3))
     quads = quads[keep]
     used = np.unique(quads)
