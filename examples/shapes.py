@@ -539,8 +539,9 @@ stiffener_offset = "150 mm"    # corner stiffeners join the points this far alon
 diameter = "13 mm"             # M12 bolts in 13 mm holes
 spacing = "250 mm"
 edge_distance = "60 mm"
-access_sheet = "bottom"        # sheet with openings to reach the bolts: bottom | top | none
-access_diameter = "40 mm"
+access_sheet = "bottom"        # sheet with the slots the tool reaches the bolts through: bottom | top | none
+tool = "ring-spanner"          # the fitter's tool (ring-spanner | socket): the slots are sized for it
+# tool_swing = 30.0            # degrees between two grips; head sizes default from the bolt
 
 [material]
 name = "S235"

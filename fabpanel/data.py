@@ -284,9 +284,12 @@ class Part:
     frame : (4, 4) float or None
         ribs and stiffeners: maps the plane's (x, y, 0) to world coordinates.
     holes : tuple of Hole
-        ribs: bolt holes in the flat frame (``outline``'s). Sheets: access openings with the
-        centre given as the surface parameters ``(u, v)`` in [0, 1]², which index
-        ``surface_grid`` uniformly; the cutting stage places them in the unrolled frame.
+        ribs: bolt holes in the flat frame (``outline``'s).
+    openings : tuple of (n, 2) float
+        sheets: the access slots as closed loops of surface parameters ``(u, v)`` in [0, 1]²,
+        which index ``surface_grid`` uniformly; the cutting stage unrolls them with the sheet.
+    opening_area : float
+        sheets: the openings' area, mm2 (taken off ``area`` already).
     """
 
     id: str
@@ -302,6 +305,8 @@ class Part:
     outline: np.ndarray | None = field(default=None, repr=False)
     frame: np.ndarray | None = field(default=None, repr=False)
     holes: tuple[Hole, ...] = ()
+    openings: tuple[np.ndarray, ...] = field(default=(), repr=False)
+    opening_area: float = 0.0
     files: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
@@ -315,6 +320,7 @@ class Part:
             "area_mm2": round(self.area, 1),
             "mass_kg": round(self.mass, 4),
             "holes": len(self.holes),
+            "openings": len(self.openings),
             "files": list(self.files),
         }
 

@@ -33,6 +33,14 @@ from pydantic import (
 )
 
 from .errors import InputError
+from .fasteners import (
+    MIN_ENGAGEMENT,
+    TOOL_RIB_GAP,
+    AccessDesign,
+    access_design,
+    bolt_for_hole,
+    default_tool,
+)
 from .units import as_written, format_like, format_number, format_quantity, parse_quantity
 
 
@@ -78,10 +86,6 @@ MAX_HOLE_PER_RIB_THICKNESS = 6.0
 #: ribs are the core of the sandwich and hold the bolts between the sheets; a plate as thick as
 #: half the core is no sandwich panel (typically a unit slip: "500 mm" for "5 mm")
 MAX_PLATE_PER_RIB_HEIGHT = 0.5
-#: access openings at least this many hole diameters (fabpanel's rule): a socket must reach the
-#: nut through it. The nut is about 1.4 d0 across flats (ISO 4032: 18 mm for M12 in a 13 mm
-#: hole) and a socket's wall adds about 3 mm each side: about 2 d0
-MIN_ACCESS_PER_HOLE = 2.0
 #: corners opening up to this angle get a stiffener (degrees, as
 #: ``fabpanel.model.panel.MAX_STIFFENED_ANGLE``): a stiffener's chord is at most
 #: 2 sin(75 deg) x stiffener_offset long
@@ -319,10 +323,22 @@ class BoltSection(_Section):
     spacing: PositiveLength = _default("250 mm")
     #: from the corner to the first bolt, at least 1.2 d0 (EN 1993-1-8 Table 3.3)
     edge_distance: PositiveLength = _default("60 mm")
-    #: sheet with openings to reach the bolts
+    #: sheet with the access slots the tool reaches the bolts through (``none``: the bolts are
+    #: reached otherwise, and not checked)
     access_sheet: Literal["bottom", "top", "none"] = "bottom"
-    #: at least 2 d0: a socket on the nut must pass
-    access_diameter: PositiveLength = _default("40 mm")
+    #: the fitter's tool: a ring spanner, or a socket on a ratchet
+    tool: Literal["ring-spanner", "socket"] = "ring-spanner"
+    #: ring or ratchet head diameter (default from the bolt's across-flats size s: 1.7 s + 1 mm
+    #: for a ring, s + 22 mm for a ratchet)
+    tool_head_diameter: PositiveLength | None = None
+    #: ring or ratchet head thickness (default 0.55 s for a ring, 0.8 s for a ratchet)
+    tool_head_thickness: PositiveLength | None = None
+    #: handle width in the swing plane (default 1.1 s)
+    tool_handle_width: PositiveLength | None = None
+    #: degrees the handle turns between two grips (30: a 12-point ring)
+    tool_swing: float = Field(default=30.0, ge=5.0, le=180.0)
+    #: socket: from the nut's seat to the ratchet head (default 2 s, at least 30 mm)
+    socket_length: PositiveLength | None = None
 
 
 class SandwichSection(_Section):
@@ -357,6 +373,25 @@ class SandwichSection(_Section):
         if self.buildup == "cladding":
             return self.sheet_thickness
         return self.sheet_thickness + self.rib_height + self.bottom_thickness
+
+    def access_design(self) -> AccessDesign | None:
+        """The bolts' tool, its position and the access slot (:mod:`fabpanel.fasteners`), or
+        None without bolts to reach (cladding, no access sheet, no standard bolt)."""
+        bolts = self.bolts
+        bolt = bolt_for_hole(bolts.diameter)
+        if self.buildup != "sandwich" or bolts.access_sheet == "none" or bolt is None:
+            return None
+        tool = default_tool(
+            bolts.tool,
+            bolt,
+            bolts.tool_head_diameter,
+            bolts.tool_head_thickness,
+            bolts.tool_handle_width,
+            bolts.tool_swing,
+            bolts.socket_length,
+        )
+        sheet = self.sheet_thickness if bolts.access_sheet == "top" else self.bottom_thickness
+        return access_design(bolt, tool, self.rib_thickness, self.rib_height / 2 + sheet)
 
     def _check(self, w: _Written) -> None:
         if self.buildup != "sandwich":
@@ -433,20 +468,25 @@ class SandwichSection(_Section):
                         f"{w.like('bolts.diameter', value / factor)}"
                     ),
                 )
-        if bolts.access_sheet != "none" and bolts.access_diameter < MIN_ACCESS_PER_HOLE * d0:
-            raise w.conflict(
-                "bolts.access_diameter",
+        bolt = bolt_for_hole(d0)
+        if bolt is None:
+            raise _RuleError(
                 "bolts.diameter",
-                (
-                    f"a socket on the nut must pass the access opening: at least "
-                    f"{MIN_ACCESS_PER_HOLE:g} x the hole diameter"
-                ),
-                (
-                    f"use access openings of at least "
-                    f"{w.like('bolts.access_diameter', MIN_ACCESS_PER_HOLE * d0)}, smaller bolts, "
-                    'or access_sheet = "none" if the bolts are reached otherwise'
-                ),
+                f"{w('bolts.diameter')} takes no standard bolt (an M8 needs a 9 mm hole); use "
+                "a hole of at least 9 mm",
             )
+        if bolts.access_sheet != "none":
+            design = self.access_design()
+            if design is not None and design.engagement < MIN_ENGAGEMENT:
+                raise w.conflict(
+                    "bolts.tool_head_thickness",
+                    "bolts.diameter",
+                    (
+                        f"the tool covers {design.engagement:.0%} of the {bolt.name} hex (at "
+                        f"least {MIN_ENGAGEMENT:.0%}): it stands {TOOL_RIB_GAP:g} mm off the rib"
+                    ),
+                    "use a thicker tool head or a larger bolt",
+                )
         if self.stiffener_offset <= 2 * t_rib:
             raise w.conflict(
                 "stiffener_offset",

@@ -142,7 +142,8 @@ def test_serialised_defaults_keep_their_units():
         "spacing": "250 mm",
         "edge_distance": "60 mm",
         "access_sheet": "bottom",
-        "access_diameter": "40 mm",
+        "tool": "ring-spanner",
+        "tool_swing": 30.0,
     }
     assert data["material"]["E"] == "210000 MPa"
     assert data["material"]["density"] == "7.85e-06 kg/mm3"
@@ -257,10 +258,15 @@ def test_any_horizontal_wind_direction_is_kept():
             {"sandwich": {"bolts": {"spacing": "30 mm"}}},
             ['[sandwich.bolts] spacing: "30 mm"', "at least 31.2 mm"],
         ),
-        # a socket must pass the access opening
+        # the tool must grip two thirds of the hex
         (
-            {"sandwich": {"bolts": {"access_diameter": "20 mm"}}},
-            ['[sandwich.bolts] access_diameter: "20 mm"', "at least 26 mm"],
+            {"sandwich": {"bolts": {"tool_head_thickness": "4 mm"}}},
+            ['[sandwich.bolts] tool_head_thickness: "4 mm"', "at least 67%"],
+        ),
+        # a hole no standard bolt fits
+        (
+            {"sandwich": {"bolts": {"diameter": "8 mm", "spacing": "30 mm"}}},
+            ['[sandwich.bolts] diameter: "8 mm"', "no standard bolt"],
         ),
         # the stiffener between the ribs' inner faces
         (
@@ -319,7 +325,7 @@ def test_the_rules_keep_sensible_sandwiches():
                     "diameter": "18 mm",
                     "spacing": "200 mm",
                     "edge_distance": "40 mm",
-                    "access_diameter": "45 mm",
+                    "tool": "socket",
                 },
             }
         }
@@ -329,8 +335,8 @@ def test_the_rules_keep_sensible_sandwiches():
     Job.from_dict(
         {"sandwich": {"stiffener_offset": "1.3 m"}, "panelize": {"grid_u": 3, "grid_v": 3}}
     )
-    # no access openings: their size does not matter
-    Job.from_dict({"sandwich": {"bolts": {"access_sheet": "none", "access_diameter": "5 mm"}}})
+    # no access openings: the tool does not matter
+    Job.from_dict({"sandwich": {"bolts": {"access_sheet": "none", "tool_head_thickness": "1 mm"}}})
 
 
 def test_cladding_has_no_rib_or_bolt_rules():

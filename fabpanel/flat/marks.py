@@ -17,6 +17,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+import shapely
 
 from ..data import FlatPart, Hole, MarkGroup
 from ..geom.polygon import polygon_area
@@ -72,7 +73,7 @@ def _coarse_key(part: FlatPart) -> tuple:
         part.forming,
         part.face,
         len(part.outline),
-        tuple(len(h) for h in part.holes),
+        len(part.holes),
         len(part.round_holes),
         len(part.drill_holes),
         len(part.bend_lines),
@@ -138,7 +139,7 @@ def _features_match(a: FlatPart, b: FlatPart, transform: np.ndarray, tolerance: 
             return False
     for contour in a.holes:
         moved = _apply(transform, np.asarray(contour, dtype=float))
-        if not any(_point_sets_match(moved, np.asarray(c), tolerance) for c in b.holes):
+        if not any(_contours_match(moved, np.asarray(c), tolerance) for c in b.holes):
             return False
     if len(a.bend_lines):
         ends = _apply(transform, np.asarray(a.bend_lines).reshape(-1, 2)).reshape(-1, 2, 2)
@@ -174,8 +175,11 @@ def _holes_match(
     return True
 
 
-def _point_sets_match(a: np.ndarray, b: np.ndarray, tolerance: float) -> bool:
-    if len(a) != len(b):
+def _contours_match(a: np.ndarray, b: np.ndarray, tolerance: float) -> bool:
+    """Two closed contours lie within ``tolerance`` of each other (Hausdorff distance of the
+    closed polylines, whatever their vertex counts: a shapely union places its vertices by
+    float noise)."""
+    if np.linalg.norm(a.mean(axis=0) - b.mean(axis=0)) > 10 * tolerance + 1.0:
         return False
-    gaps = np.linalg.norm(a[:, None, :] - b[None, :, :], axis=2)
-    return bool(gaps.min(axis=1).max() <= tolerance and gaps.min(axis=0).max() <= tolerance)
+    first, second = shapely.LinearRing(a), shapely.LinearRing(b)
+    return bool(shapely.hausdorff_distance(first, second, densify=0.25) <= tolerance)

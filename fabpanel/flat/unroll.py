@@ -157,6 +157,11 @@ def grid_point(grid: np.ndarray, u: float, v: float) -> np.ndarray:
     )
 
 
+def _clockwise(contour: np.ndarray) -> np.ndarray:
+    """An inner contour runs clockwise."""
+    return contour[::-1].copy() if polygon_area(contour) > 0 else contour
+
+
 def unroll_sheet(part: Part) -> FlatPart:
     """Unroll one sheet's ``surface_grid`` into a :class:`FlatPart`."""
     if part.surface_grid is None:
@@ -175,6 +180,9 @@ def unroll_sheet(part: Part) -> FlatPart:
     holes = tuple(
         dataclasses.replace(h, centre=tuple(grid_point(uv, *h.centre))) for h in part.holes
     )
+    contours = tuple(
+        _clockwise(np.array([grid_point(uv, *p) for p in loop])) for loop in part.openings
+    )
     return FlatPart(
         id=part.id,
         kind=part.kind,
@@ -182,6 +190,7 @@ def unroll_sheet(part: Part) -> FlatPart:
         material=part.material,
         thickness=part.thickness,
         outline=outline,
+        holes=contours,
         round_holes=holes,
         bend_lines=bending.lines,  # cut round the labels once they are placed (labelled)
         max_strain=strain,

@@ -71,3 +71,15 @@ def closest_on_polylines(
         )
         out[first : first + chunk] = foot[np.arange(len(block)), best]
     return out
+
+
+def resample_closed(ring: np.ndarray, step: float) -> np.ndarray:
+    """A closed polyline ``(n, 2)`` with points at most ``step`` apart: every run split evenly,
+    its vertices kept."""
+    out = []
+    for a, b in zip(ring, np.roll(ring, -1, axis=0)):
+        n = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
+        out.append(a + np.linspace(0.0, 1.0, n, endpoint=False)[:, None] * (b - a))
+    points = np.concatenate(out)
+    keep = np.r_[True, np.linalg.norm(np.diff(points, axis=0), axis=1) > 1e-6]
+    return points[keep]

@@ -110,8 +110,8 @@ def build(
             "spacing": float(bolts.spacing),
             "edge_distance": float(bolts.edge_distance),
             "access_sheet": bolts.access_sheet,
-            "access_diameter": float(bolts.access_diameter),
         },
+        "access": sw.access_design(),
     }
     m = len(developed.panel_ids)
     neighbours = developed.layout.side_neighbours
@@ -179,6 +179,8 @@ def build(
                     outline=record.get("outline"),
                     frame=record.get("frame"),
                     holes=tuple(record.get("holes", ())),
+                    openings=tuple(record.get("opening_loops", ())),
+                    opening_area=float(record.get("opening_area", 0.0)),
                 )
             )
     metrics, issues = _model_metrics(developed, parts, done, time.perf_counter() - started)
@@ -300,7 +302,8 @@ def _model_metrics(
         "total_mass_kg": round(float(sum(p.mass for p in parts)), 3),
         "total_volume_mm3": round(volume, 1),
         "bolt_holes": int(sum(len(p.holes) for p in parts if p.kind == "rib")),
-        "access_openings": int(sum(len(p.holes) for p in parts if p.kind.startswith("sheet"))),
+        "access_openings": int(sum(len(p.openings) for p in parts if p.kind.startswith("sheet"))),
+        **_bolt_counts(results),
         "max_sheet_fit_error_mm": float(max(fit)),
         "max_sheet_trim_slide_mm": float(max(slide)),
         "max_sheet_edge_mismatch_mm": mismatch,
@@ -313,6 +316,36 @@ def _model_metrics(
         "panels": per_panel,
     }
     return metrics, issues
+
+
+def _bolt_counts(results: list[dict[str, Any]]) -> dict[str, Any]:
+    """``bolts_total``: the bolts of the built panels' joints, each once (the two ribs' holes
+    of a bolt are coaxial: centres within 1 mm are one bolt); ``bolts_unreachable``: those the
+    tool cannot reach from one side or the other (None when the job has no access sheet: not
+    checked); ``bolts_unreachable_ids``: one rib's name for each."""
+    from scipy.cluster.hierarchy import DisjointSet
+    from scipy.spatial import cKDTree
+
+    names, centres, flagged = [], [], []
+    for result in results:
+        marked = {tuple(b) for b in result["measures"].get("bolts_unreachable", [])}
+        for side, stack in result["bolts"].items():
+            for i, centre in enumerate(stack):
+                names.append(f"{result['panel_id']}-RIB-{side} bolt {i}")
+                centres.append(centre)
+                flagged.append((side, i) in marked)
+    bolts = DisjointSet(range(len(names)))
+    if centres:
+        for a, b in cKDTree(np.array(centres)).query_pairs(1.0):
+            bolts.merge(a, b)
+    groups = bolts.subsets()
+    blocked = [min(names[i] for i in g) for g in groups if any(flagged[i] for i in g)]
+    checked = bool(results) and all(r["measures"].get("bolts_checked") for r in results)
+    return {
+        "bolts_total": len(groups),
+        "bolts_unreachable": len(blocked) if checked else None,
+        "bolts_unreachable_ids": sorted(blocked),
+    }
 
 
 def _joints(

@@ -1,4 +1,4 @@
-"""Bolted joints between back-to-back ribs: where the bolts go, and where the access openings go.
+"""Bolted joints between back-to-back ribs: where the bolts go, and the frame of each bolt.
 
 Bolt stations are computed from data both panels of a joint hold identically: the shared side's
 developed samples and normals (the side polyline of one panel is the other's reversed) and the
@@ -66,28 +66,22 @@ def bolt_centres(
     return centres - (centres @ plane[:3] - plane[3])[:, None] * plane[:3]
 
 
-def access_points(
-    bolts: np.ndarray, plane: np.ndarray, rib_thickness: float, diameter: float
+def joint_frames(
+    side_points: np.ndarray, plane: np.ndarray, centres: np.ndarray, towards: np.ndarray
 ) -> np.ndarray:
-    """(n, 3) float: where the access openings of a rib's bolts are aimed, mm: beside each bolt,
-    inside the panel, the opening's edge ``ACCESS_CLEARANCE`` from the rib's inner face."""
-    return bolts + (rib_thickness + ACCESS_CLEARANCE + diameter / 2) * plane[:3]
-
-
-def merge_close(points: np.ndarray, distance: float) -> np.ndarray:
-    """(n', 3) float: ``points (n, 3)`` with every pair closer than ``distance`` replaced by
-    its midpoint, repeatedly. Near a corner the first bolts of the two ribs are about 30 mm
-    apart: one opening between them reaches both nuts, where two would overlap."""
-    remaining = [p for p in np.asarray(points, dtype=float)]
-    merged = True
-    while merged and len(remaining) > 1:
-        merged = False
-        array = np.array(remaining)
-        dist = np.linalg.norm(array[:, None] - array[None], axis=2)
-        np.fill_diagonal(dist, np.inf)
-        i, j = np.unravel_index(np.argmin(dist), dist.shape)
-        if dist[i, j] < distance:
-            remaining = [p for n, p in enumerate(remaining) if n not in (i, j)]
-            remaining.append((array[i] + array[j]) / 2)
-            merged = True
-    return np.array(remaining).reshape(-1, 3)
+    """(n, 4, 4) float: the joint frame of each bolt (see :mod:`fabpanel.fasteners`): x along
+    the rib (the side's direction at the bolt, in the rib plane), y the rib plane's normal (into
+    the panel), z = x cross y turned to point along ``towards`` (the access sheet), origin the
+    bolt centre ``centres (n, 3)``."""
+    segments = np.diff(side_points, axis=0)
+    mids = (side_points[:-1] + side_points[1:]) / 2
+    nearest = np.argmin(np.linalg.norm(centres[:, None] - mids[None], axis=2), axis=1)
+    y = plane[:3] / np.linalg.norm(plane[:3])
+    x = segments[nearest] - (segments[nearest] @ y)[:, None] * y
+    x /= np.linalg.norm(x, axis=1, keepdims=True)
+    z = np.cross(x, y)
+    flip = np.where(z @ towards < 0, -1.0, 1.0)[:, None]
+    x, z = x * flip, z * flip
+    frames = np.tile(np.eye(4), (len(centres), 1, 1))
+    frames[:, :3, 0], frames[:, :3, 1], frames[:, :3, 2], frames[:, :3, 3] = x, y, z, centres
+    return frames

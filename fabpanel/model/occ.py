@@ -244,7 +244,7 @@ def slab(
     solid = maker.Solid()
     BRepLib.OrientClosedSolid_s(solid)
     check_valid(solid, f"sheet solid of {name}")
-    if volume(solid) <= 0:
+    if volume(solid, adaptive=False) <= 0:  # the sign only: the fast rule
         raise KernelError(f"sheet solid of {name} has non-positive volume")
     return solid
 
@@ -329,7 +329,7 @@ def prism(
         raise KernelError(f"extrusion of {name} failed")
     solid = _single_solid(maker.Shape(), f"extrusion of {name}")
     check_valid(solid, f"extrusion of {name}")
-    if volume(solid) <= 0:
+    if volume(solid, adaptive=False) <= 0:
         raise KernelError(f"extrusion of {name} gave a solid of non-positive volume")
     return solid
 
@@ -382,8 +382,9 @@ def check_valid(shape: TopoDS_Shape, what: str) -> None:
 
 
 #: relative accuracy of the adaptive volume integration: the fixed Gauss rule OCCT uses by default
-#: was 1 % off on a sheet drilled with one 40 mm hole (trimmed B-spline faces)
-VOLUME_ACCURACY = 1e-6
+#: was 1 % off on a sheet drilled with one 40 mm hole (trimmed B-spline faces). 1e-4 gives the
+#: same volume as 1e-6 to 1e-13 on a sheet with 18 access slots, in 0.3 s instead of 0.45 s
+VOLUME_ACCURACY = 1e-4
 
 
 def volume(shape: TopoDS_Shape, adaptive: bool = True) -> float:

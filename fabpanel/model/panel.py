@@ -31,8 +31,12 @@ import numpy as np
 
 from ..data import Hole
 from ..errors import KernelError
+from ..fasteners import AccessDesign
 from ..geom.polygon import polygon_area
 from . import joints, occ
+from .access import REACH_OVERLAP, blocked_bolts, opening_prism
+from .clash import part_solid
+from .openings import Opening, opening_loops, slot_openings
 from .trim import TrimmedFace, side_rows, trimmed_face
 
 #: points along each rib edge curve (top and bottom), corner to corner
@@ -133,7 +137,9 @@ def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict
     measures["sheet_fit_error_mm"] = max(f.fit_error for f in faces.values())
     measures["sheet_trim_slide_mm"] = max(float(f.slide.max()) for f in faces.values())
 
-    access = payload["bolt"]["access_sheet"] if sandwich and bolts else "none"
+    design: AccessDesign | None = payload["access"] if sandwich else None
+    access = payload["bolt"]["access_sheet"] if design is not None else "none"
+    frames = _joint_frames(samples, normals, planes, bolts, access)
     building(f"{pid}-TOP")
     parts = [
         _sheet(
@@ -144,10 +150,8 @@ def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict
             payload["t_top"],
             payload["fibre"],
             k,
-            access == "top",
-            bolts,
-            planes,
-            payload,
+            frames if access == "top" else {},
+            design,
         )
     ]
     if sandwich:
@@ -161,10 +165,8 @@ def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict
                 payload["t_bot"],
                 payload["fibre"],
                 k,
-                access == "bottom",
-                bolts,
-                planes,
-                payload,
+                frames if access == "bottom" else {},
+                design,
             )
         )
         ribs, stiffeners = [], []
@@ -249,7 +251,9 @@ def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict
         parts += ribs + stiffeners
         measures["plate_planarity_mm"] = {r["id"]: r["planarity"] for r in ribs + stiffeners}
         building(pid)
-        findings += _clearance_findings(pid, parts, bolts, planes, payload)
+        findings += _clearance_findings(pid, parts, bolts, payload)
+        if design is not None:
+            findings += _reach_findings(pid, parts, frames, design)
     findings += [
         ("access-clash", part["id"], message)
         for part in parts
@@ -257,8 +261,17 @@ def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict
     ]
     measures["bolts"] = int(sum(len(b) for b in bolts.values()))
     measures["access_openings"] = int(
-        sum(len(p["holes"]) for p in parts if p["kind"].startswith("sheet"))
+        sum(len(p["openings"]) for p in parts if p["kind"].startswith("sheet"))
     )
+    # (side, bolt index) of each bolt the tool cannot reach from this panel
+    measures["bolts_unreachable"] = sorted(
+        {
+            (int(f[1].rsplit("-", 1)[1]), int(str(f[2]).split(":")[0].rsplit(" ", 1)[1]))
+            for f in findings
+            if f[0] == "bolt-unreachable"
+        }
+    )
+    measures["bolts_checked"] = design is not None
     measures["valid"] = all(p["valid"] for p in parts)
     building(f"{pid}-TOP")
     edges = [side_curve(top_outer.surface, side, 129) for side in range(4)]
@@ -269,6 +282,29 @@ def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict
         "findings": findings,
         "bolts": bolts,
         "top_edges": edges,
+    }
+
+
+def _joint_frames(
+    samples: np.ndarray,
+    normals: np.ndarray,
+    planes: np.ndarray,
+    bolts: dict[int, np.ndarray],
+    access: str,
+) -> dict[int, np.ndarray]:
+    """Side -> the joint frames of its bolts (:func:`joints.joint_frames`), z towards the
+    access sheet; empty without one."""
+    if access == "none":
+        return {}
+    sign = 1.0 if access == "top" else -1.0
+    return {
+        side: joints.joint_frames(
+            side_rows(samples)[side],
+            planes[side],
+            centres,
+            sign * side_rows(normals)[side].mean(axis=0),
+        )
+        for side, centres in bolts.items()
     }
 
 
@@ -283,13 +319,12 @@ def _sheet(
     thickness: float,
     fibre: str,
     k: int,
-    with_access: bool,
-    bolts: dict[int, np.ndarray],
-    planes: np.ndarray,
-    payload: dict,
+    frames: dict[int, np.ndarray],
+    design: AccessDesign | None,
 ) -> dict:
     """A sheet solid between two trimmed faces (``outer``: away from the ribs for the top
-    sheet, the face on the ribs for the bottom sheet), with its access openings."""
+    sheet, the face on the ribs for the bottom sheet), with the access slots of the bolts whose
+    joint frames are ``frames`` (empty: none)."""
     dense = GRID_REFINE * (k - 1) + 1
     grid_a = occ.sample_surface(outer.surface, dense, dense)
     grid_b = occ.sample_surface(inner.surface, dense, dense)
@@ -302,108 +337,53 @@ def _sheet(
     }[fibre]
     surface_grid = (1 - depth) * grid_a + depth * grid_b
     mid_area = _grid_area((grid_a + grid_b) / 2)
-    holes: list[Hole] = []
-    openings = np.zeros((0, 3))
-    loops: list = []
+    kept: list[tuple[Opening, np.ndarray, np.ndarray]] = []
     dropped: list[str] = []
-    if with_access and bolts:
-        bolt = payload["bolt"]
-        diameter = bolt["access_diameter"]
-        cavity = inner if kind == "sheet-top" else outer
-        aims = joints.merge_close(
-            np.concatenate(
-                [
-                    joints.access_points(b, planes[s], payload["t_rib"], diameter)
-                    for s, b in sorted(bolts.items())
-                ]
-            ),
-            diameter + ACCESS_MIN_CLEAR,
-        )
-        # an opening must clear every rib of the panel (and so lie inside the sheet)
-        clear = (aims @ planes[:, :3].T - planes[:, 3] - payload["t_rib"]).min(axis=1)
-        fits = clear >= diameter / 2 + ACCESS_MIN_CLEAR
-        dropped += [
-            f"access opening at {np.round(a, 1).tolist()} would run under a rib "
-            f"({c - diameter / 2:.1f} mm clear); its bolt is reached from elsewhere"
-            for a, c in zip(aims[~fits], clear[~fits])
-        ]
-        aims = aims[fits]
-        if len(aims):
-            uv = occ.project_to_surface(cavity.surface, aims)
-            openings, _, _ = occ.surface_derivatives(cavity.surface, uv)
-            axes = cavity.normals(uv)
-            loops_out, ok_out = hole_loops(outer.surface, openings, axes, diameter / 2)
-            loops_in, ok_in = hole_loops(inner.surface, openings, axes, diameter / 2)
-            ok = ok_out & ok_in
-            dropped += [
-                f"access opening at {np.round(a, 1).tolist()} left out: its outline on "
-                "the sheet faces was not found (the sheet curves too much there)"
-                for a in openings[~ok]
-            ]
-            loops = list(zip(loops_out[ok], loops_in[ok]))
-            openings = openings[ok]
-            holes = [Hole((float(u), float(v)), float(diameter), "access") for u, v in uv[ok]]
+    if design is not None and frames:
+        openings = slot_openings(design, frames)
+        loops_a = opening_loops(outer.surface, openings, design.reach)
+        loops_b = opening_loops(inner.surface, openings, design.reach)
+        for opening, a, b in zip(openings, loops_a, loops_b, strict=True):
+            if isinstance(a, str) or isinstance(b, str):
+                why = a if isinstance(a, str) else b
+                dropped.append(f"access slot of {_bolt_names(name, opening.bolts)} left out: {why}")
+            else:
+                kept.append((opening, a, b))
     try:
-        solid = occ.slab(outer.surface, inner.surface, name, loops)
+        solid = occ.slab(outer.surface, inner.surface, name, [(a, b) for _, a, b in kept])
     except KernelError as err:
-        if not loops:
+        if not kept:
             raise
-        dropped.append(f"access openings left out: the sheet with them was not valid ({err})")
+        dropped.append(f"access slots left out: the sheet with them was not valid ({err})")
         solid = occ.slab(outer.surface, inner.surface, name)
-        holes, openings = [], np.zeros((0, 3))
-    mid_area -= len(holes) * np.pi * payload["bolt"]["access_diameter"] ** 2 / 4
+        kept = []
+    opening_area = sum(o.area for o, _, _ in kept)
+    cavity = 1 if kind == "sheet-top" else 0
     return {
         "dropped": dropped,
         "id": name,
         "kind": kind,
         "thickness": thickness,
         "volume": occ.volume(solid),
-        "area": float(mid_area),
+        "area": float(mid_area - opening_area),
         "brep": occ.to_brep(solid),
         "surface_grid": surface_grid,
-        "holes": holes,
-        "openings": openings,
+        "holes": [],
+        "openings": [o for o, _, _ in kept],
+        "opening_loops": [loops[cavity] for loops in ((a, b) for _, a, b in kept)],
+        "opening_area": float(opening_area),
         "valid": occ.is_valid(solid),
         "clash_shape": ("slab", grid_a, grid_b),
     }
 
 
-def hole_loops(
-    surface, centres: np.ndarray, axes: np.ndarray, radius: float, points: int = HOLE_POINTS
-) -> tuple[np.ndarray, np.ndarray]:
-    """(h, points, 2) float: where round holes (axis through ``centres (h, 3)`` along ``axes``)
-    meet a surface, as parameter loops at equal angles around each axis (2D Newton per point:
-    the surface point whose offset from the axis is ``radius`` at that angle); and (h,) bool,
-    which loops were found (Newton fails where the surface curves strongly under the hole)."""
-    axes = axes / np.linalg.norm(axes, axis=1, keepdims=True)
-    helper = np.where(np.abs(axes[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    e1 = np.cross(axes, helper)
-    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-    e2 = np.cross(axes, e1)
-    angle = np.linspace(0.0, 2 * np.pi, points, endpoint=False)
-    h = len(centres)
-    target = np.stack([np.cos(angle), np.sin(angle)], axis=1) * radius  # (points, 2)
-    e1r, e2r = np.repeat(e1, points, axis=0), np.repeat(e2, points, axis=0)
-    goal = np.tile(target, (h, 1))
-    origin = np.repeat(centres, points, axis=0)
-    uv = np.repeat(occ.project_to_surface(surface, centres), points, axis=0)
-    for _ in range(30):
-        p, du, dv = occ.surface_derivatives(surface, uv)
-        rel = p - origin
-        f = np.stack([np.einsum("nd,nd->n", rel, e1r), np.einsum("nd,nd->n", rel, e2r)], 1) - goal
-        if np.abs(f).max() < 1e-7:
-            break
-        jac = np.stack(
-            [
-                np.stack([np.einsum("nd,nd->n", e1r, du), np.einsum("nd,nd->n", e1r, dv)], 1),
-                np.stack([np.einsum("nd,nd->n", e2r, du), np.einsum("nd,nd->n", e2r, dv)], 1),
-            ],
-            axis=1,
-        )
-        step = np.linalg.solve(jac + 1e-12 * np.eye(2), f[..., None])[..., 0]
-        uv = np.where(np.isfinite(step), uv - step, uv)
-    converged = np.isfinite(f).all(axis=1) & (np.abs(f).max(axis=1, initial=0.0) < 1e-6)
-    return uv.reshape(h, points, 2), converged.reshape(h, points).all(axis=1)
+def _bolt_names(sheet: str, bolts: tuple[tuple[int, int], ...]) -> str:
+    """``P012-RIB-1 bolt 2 and P012-RIB-2 bolt 0`` for an opening's bolts (numbered from 0)."""
+    panel = sheet.rsplit("-", 1)[0] if sheet.count("-") else sheet
+    names = [f"{panel}-RIB-{side} bolt {i}" for side, i in bolts]
+    if len(names) > 3:
+        return f"{', '.join(names[:2])} and {len(names) - 2} more bolts"
+    return " and ".join(names)
 
 
 def _grid_area(grid: np.ndarray) -> float:
@@ -693,10 +673,9 @@ def _drop_duplicates(points: np.ndarray, closed: bool = True, eps: float = 1e-6)
 # clearances
 # --------------------------------------------------------------------------------------------
 def _clearance_findings(
-    pid: str, parts: list[dict], bolts: dict[int, np.ndarray], planes: np.ndarray, payload: dict
+    pid: str, parts: list[dict], bolts: dict[int, np.ndarray], payload: dict
 ) -> list[tuple[str, str, str]]:
-    """Bolt holes that do not fit their rib, access openings that run under a rib or a
-    stiffener: ``(code, part id, message)`` each."""
+    """Bolt holes that do not fit their rib: ``(code, part id, message)`` each."""
     from shapely.geometry import Point, Polygon
 
     findings = []
@@ -721,45 +700,71 @@ def _clearance_findings(
                         ),
                     )
                 )
-    radius = payload["bolt"]["access_diameter"] / 2
-    t_rib = payload["t_rib"]
-    for sheet in (p for p in parts if p["kind"].startswith("sheet")):
-        for centre in sheet["openings"]:
-            for side in range(4):
-                clear = centre @ planes[side, :3] - planes[side, 3] - t_rib - radius
-                if clear < ACCESS_MIN_CLEAR:
+    return findings
+
+
+def _reach_findings(
+    pid: str, parts: list[dict], frames: dict[int, np.ndarray], design: AccessDesign
+) -> list[Finding]:
+    """Openings that run under a rib or a stiffener (``access-clash``), and bolts the tool
+    cannot reach (``bolt-unreachable``, error): no slot was cut for them, or the tool's path
+    hits a part of the panel (:func:`fabpanel.model.access.blocked_bolts`)."""
+    sheet = next((p for p in parts if p["kind"].startswith("sheet") and p["openings"]), None)
+    openings: list[Opening] = sheet["openings"] if sheet else []
+    cut = {bolt for o in openings for bolt in o.bolts}
+    prisms = [
+        (o, opening_prism(o.outline, o.frame, design.reach, sheet["thickness"] if sheet else 0.0))
+        for o in openings
+    ]
+    findings: list[Finding] = []
+    solids = {}
+    for part in parts:
+        solid = part_solid(part["clash_shape"], part["id"])
+        if part is sheet:
+            for _, prism in prisms:
+                solid = solid - prism
+        elif not part["kind"].startswith("sheet"):
+            for opening, prism in prisms:
+                shared = float((solid ^ prism).volume())
+                if shared > REACH_OVERLAP:
                     findings.append(
                         (
                             "access-clash",
-                            sheet["id"],
+                            sheet["id"] if sheet else pid,
                             (
-                                f"access opening at "
-                                f"{np.round(centre, 1).tolist()} runs under "
-                                f"{pid}-RIB-{side} ({clear:.1f} mm clear)"
+                                f"the access slot of {_bolt_names(pid, opening.bolts)} runs "
+                                f"under {part['id']} ({shared:.0f} mm3)"
                             ),
+                            "error",
                         )
                     )
-            for part in parts:
-                if part["kind"] != "stiffener":
-                    continue
-                frame, plane, t = part["frame"], part["plane"], part["thickness"]
-                along = (centre - frame[:3, 3]) @ frame[:3, 0]
-                xs = part["outline"][:, 0]
-                if along < xs.min() - radius or along > xs.max() + radius:
-                    continue
-                dist = centre @ plane[:3] - plane[3]
-                clear = max(-dist, dist - t) - radius
-                if clear < ACCESS_MIN_CLEAR:
-                    findings.append(
-                        (
-                            "access-clash",
-                            sheet["id"],
-                            (
-                                f"access opening at "
-                                f"{np.round(centre, 1).tolist()} runs under {part['id']} "
-                                f"({clear:.1f} mm clear); move the stiffener "
-                                "(stiffener_offset) or the bolts (edge_distance)"
-                            ),
-                        )
+        solids[part["id"]] = solid
+    for side, stack in frames.items():
+        for i in range(len(stack)):
+            if (side, i) not in cut:
+                findings.append(
+                    (
+                        "bolt-unreachable",
+                        f"{pid}-RIB-{side}",
+                        f"{pid}-RIB-{side} bolt {i}: no access slot could be cut for it",
+                        "error",
                     )
+                )
+    for side, i, part_id, shared in blocked_bolts(design, frames, solids):
+        if (side, i) not in cut:
+            continue
+        centre = np.round(frames[side][i][:3, 3], 1).tolist()
+        findings.append(
+            (
+                "bolt-unreachable",
+                f"{pid}-RIB-{side}",
+                (
+                    f"{pid}-RIB-{side} bolt {i}: the {design.tool.describe()} hits {part_id} "
+                    f"({shared:.0f} mm3) on its way to the {design.bolt.name} at {centre}; "
+                    "move the bolts (edge_distance, spacing), the stiffeners "
+                    "(stiffener_offset) or choose another tool"
+                ),
+                "error",
+            )
+        )
     return findings

@@ -423,8 +423,8 @@ def _mass_corrections(
     groups = list(model.groups)
     holes: dict[str, float] = {}
     for part in parts:
-        for hole in part.holes:
-            holes[part.kind] = holes.get(part.kind, 0.0) + np.pi * hole.diameter**2 / 4
+        holed = part.opening_area + sum(np.pi * h.diameter**2 / 4 for h in part.holes)
+        holes[part.kind] = holes.get(part.kind, 0.0) + holed
     sheet_kind = {"TOP": "sheet-top", "BOT": "sheet-bottom"}
     for g, grp in enumerate(groups):
         if grp.name in sheet_kind:

@@ -1,0 +1,108 @@
+"""The tool's swept envelope and the slot's prism as manifold3d solids, in the joint frame of
+:mod:`fabpanel.fasteners` (where the sizes and the path are defined), and the reach check."""
+
+from __future__ import annotations
+
+import itertools
+
+import manifold3d as m3d
+import numpy as np
+
+from ..fasteners import AccessDesign
+
+#: the tool's path starts this far outside the access sheet's outer face, mm
+OUTSIDE = 30.0
+#: angles the swing is sampled at (consecutive positions are hulled)
+SWING_STEPS = 7
+#: segments of the tool's round parts
+CIRCLE_SEGMENTS = 32
+
+
+# --------------------------------------------------------------------------------------------
+# the envelope
+# --------------------------------------------------------------------------------------------
+def _along_y(length: float, radius: float, start: float) -> m3d.Manifold:
+    """A cylinder on the y axis from ``start`` to ``start + length``."""
+    return (
+        m3d.Manifold.cylinder(length, radius, -1.0, CIRCLE_SEGMENTS)
+        .rotate((-90.0, 0.0, 0.0))
+        .translate((0.0, start, 0.0))
+    )
+
+
+def _body(design: AccessDesign, shift: float) -> m3d.Manifold:
+    tool = design.tool
+    y = design.inner_end + shift
+    parts = [_along_y(tool.head_thickness, tool.head_diameter / 2, y + tool.socket_length)]
+    if tool.kind == "socket":
+        parts.append(_along_y(tool.socket_length, tool.socket_diameter / 2, y))
+    return m3d.Manifold.batch_boolean(parts, m3d.OpType.Add)
+
+
+def tool_envelope(design: AccessDesign) -> m3d.Manifold:
+    """The space the tool sweeps on its path (in, onto the hex, the swing), joint frame."""
+    out = design.reach + OUTSIDE
+    slid = _body(design, design.slide)
+    insertion = m3d.Manifold.batch_hull([slid, slid.translate((0.0, 0.0, out))])
+    onto = m3d.Manifold.batch_hull([slid, _body(design, 0.0)])
+    tool = design.tool
+    handle = m3d.Manifold.cube((tool.handle_width, tool.head_thickness, out), False).translate(
+        (-tool.handle_width / 2, design.handle_start, 0.0)
+    )
+    angles = np.linspace(-tool.swing / 2, tool.swing / 2, SWING_STEPS)
+    turned = [handle.rotate((0.0, float(a), 0.0)) for a in angles]
+    sweeps = [m3d.Manifold.batch_hull([a, b]) for a, b in itertools.pairwise(turned)]
+    return m3d.Manifold.batch_boolean([insertion, onto, *sweeps], m3d.OpType.Add)
+
+
+def slot_prism(design: AccessDesign, depth: float) -> m3d.Manifold:
+    """The slot extruded along z through the access sheet (``depth``: the sheet's thickness
+    and some), joint frame: what the slot takes out of the sheet."""
+    section = m3d.CrossSection([design.slot.tolist()])
+    start = design.reach - depth - 10.0
+    return section.extrude(depth + 20.0).translate((0.0, 0.0, start))
+
+
+def placed(solid: m3d.Manifold, frame: np.ndarray) -> m3d.Manifold:
+    """A joint-frame solid moved to the world by ``frame`` (4, 4): columns x, y, z, origin."""
+    return solid.transform(np.asarray(frame, dtype=float)[:3])
+
+
+#: a tool path or a slot sharing more than this with a part is blocked, mm3
+REACH_OVERLAP = 1.0
+
+
+def opening_prism(outline: np.ndarray, frame: np.ndarray, reach: float, depth: float):
+    """An opening's outline ``(n, 2)`` extruded along its frame's z through the access sheet
+    (``depth``: the sheet's thickness), 10 mm past both faces, in the world."""
+    section = m3d.CrossSection([np.asarray(outline, dtype=float).tolist()])
+    prism = section.extrude(depth + 20.0).translate((0.0, 0.0, reach - depth - 10.0))
+    return placed(prism, frame)
+
+
+def blocked_bolts(
+    design: AccessDesign, frames: dict[int, np.ndarray], obstacles: dict[str, m3d.Manifold]
+) -> list[tuple[int, int, str, float]]:
+    """The bolts whose tool path hits a part: ``(side, index, part id, common volume mm3)``,
+    the part it shares the most with. ``obstacles``: the panel's parts as solids, the access
+    sheet with its openings taken out."""
+    if not obstacles:
+        return []
+    envelope = tool_envelope(design)
+    paths = {
+        (side, i): placed(envelope, frame)
+        for side, stack in sorted(frames.items())
+        for i, frame in enumerate(stack)
+    }
+    everything = m3d.Manifold.batch_boolean(list(obstacles.values()), m3d.OpType.Add)
+    every_path = m3d.Manifold.batch_boolean(list(paths.values()), m3d.OpType.Add)
+    if (every_path ^ everything).volume() <= REACH_OVERLAP:
+        return []
+    blocked = []
+    for (side, i), path in paths.items():
+        if (path ^ everything).volume() <= REACH_OVERLAP:
+            continue
+        shared = {pid: float((path ^ solid).volume()) for pid, solid in obstacles.items()}
+        worst = max(shared, key=lambda pid: shared[pid])
+        blocked.append((side, i, worst, shared[worst]))
+    return blocked

@@ -1,0 +1,136 @@
+"""Access slots in a sheet: one per bolt in its joint frame, merged where two come close, and
+their outlines on the sheet's faces.
+
+Each slot is the rounded rectangle of :class:`fabpanel.fasteners.AccessDesign` in its bolt's
+joint frame, cut along the frame's z (the tool's way in), so the slot's wall is the prism the
+reach check subtracts. Two slots closer than ``MIN_WEB`` (at a corner, the first bolts of the
+two ribs) become one opening: both outlines in the first one's frame, united and closed with
+``SLOT_CORNER`` rounds, so no web thinner than that is left between them to be cut.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon
+
+from ..fasteners import SLOT_CORNER, AccessDesign
+from ..geom.polygon import polygon_area, resample_closed
+from . import occ
+
+#: slots closer than this become one opening, mm (a thinner web is a sliver to the plasma)
+MIN_WEB = 10.0
+#: points of a merged outline about this far apart, mm
+OUTLINE_STEP = 2.0
+
+
+@dataclass(frozen=True)
+class Opening:
+    """One opening of a sheet: its outline ``(n, 2)`` in ``frame``'s (x, y), cut along the
+    frame's z, and the bolts ``(side, index)`` it serves."""
+
+    frame: np.ndarray
+    outline: np.ndarray
+    bolts: tuple[tuple[int, int], ...]
+
+    @property
+    def area(self) -> float:
+        return abs(polygon_area(self.outline))
+
+
+def slot_openings(design: AccessDesign, frames: dict[int, np.ndarray]) -> list[Opening]:
+    """The openings for the bolts whose joint frames are ``frames`` (side -> (n, 4, 4))."""
+    openings = [
+        Opening(frame, design.slot, ((side, i),))
+        for side, stack in sorted(frames.items())
+        for i, frame in enumerate(stack)
+    ]
+    merged = True
+    while merged:
+        merged = False
+        for a in range(len(openings)):
+            for b in range(a + 1, len(openings)):
+                joined = _joined(openings[a], openings[b], design.reach)
+                if joined is not None:
+                    openings[a] = joined
+                    del openings[b]
+                    merged = True
+                    break
+            if merged:
+                break
+    return openings
+
+
+def _in_frame(opening: Opening, frame: np.ndarray, level: float) -> np.ndarray:
+    """``opening``'s outline at ``z = level`` of its frame, in ``frame``'s (x, y)."""
+    local = np.c_[
+        opening.outline, np.full(len(opening.outline), level), np.ones(len(opening.outline))
+    ]
+    world = local @ opening.frame.T
+    return (world @ np.linalg.inv(frame).T)[:, :2]
+
+
+def _joined(first: Opening, second: Opening, level: float) -> Opening | None:
+    """Both openings as one in ``first``'s frame when they come within ``MIN_WEB``."""
+    if np.linalg.norm(first.frame[:3, 3] - second.frame[:3, 3]) > 4 * np.ptp(first.outline).max():
+        return None
+    mine = Polygon(first.outline)
+    theirs = Polygon(_in_frame(second, first.frame, level))
+    if mine.distance(theirs) >= MIN_WEB:
+        return None
+    union = shapely.union(mine, theirs).buffer(SLOT_CORNER).buffer(-SLOT_CORNER)
+    if union.geom_type != "Polygon":
+        union = union.convex_hull
+    ring = np.asarray(union.exterior.coords)[:-1]
+    if polygon_area(ring) < 0:
+        ring = ring[::-1]
+    return Opening(first.frame, resample_closed(ring, OUTLINE_STEP), first.bolts + second.bolts)
+
+
+def opening_loops(surface, openings: list[Opening], level: float) -> list[np.ndarray | str]:
+    """Where each opening's wall (its outline moved along the frame's z) meets a surface, as a
+    closed loop of surface parameters, or why there is none (2D Newton per point:
+    the surface point whose (x, y) in the frame is the outline point; it fails where the
+    surface curves strongly under the opening). ``level``: z near the surface, to start from."""
+    if not openings:
+        return []
+    counts = [len(o.outline) for o in openings]
+    frames = np.repeat(np.array([o.frame for o in openings]), counts, axis=0)
+    goal = np.concatenate([o.outline for o in openings])
+    e1, e2, origin = frames[:, :3, 0], frames[:, :3, 1], frames[:, :3, 3]
+    # Newton from the projection of each opening's centre (one projection per opening)
+    centres = np.array([o.frame[:3, 3] + level * o.frame[:3, 2] for o in openings])
+    uv = np.repeat(occ.project_to_surface(surface, centres), counts, axis=0)
+    f = np.full_like(goal, np.inf)
+    for _ in range(30):
+        p, du, dv = occ.surface_derivatives(surface, uv)
+        rel = p - origin
+        f = np.stack([np.einsum("nd,nd->n", rel, e1), np.einsum("nd,nd->n", rel, e2)], 1) - goal
+        if np.abs(f).max() < 1e-7:
+            break
+        jac = np.stack(
+            [
+                np.stack([np.einsum("nd,nd->n", e1, du), np.einsum("nd,nd->n", e1, dv)], 1),
+                np.stack([np.einsum("nd,nd->n", e2, du), np.einsum("nd,nd->n", e2, dv)], 1),
+            ],
+            axis=1,
+        )
+        step = np.linalg.solve(jac + 1e-12 * np.eye(2), f[..., None])[..., 0]
+        uv = np.where(np.isfinite(step), uv - step, uv)
+    found = np.isfinite(f).all(axis=1) & (np.abs(f).max(axis=1, initial=0.0) < 1e-6)
+    inside = ((uv > -1e-9) & (uv < 1 + 1e-9)).all(axis=1)
+    ok = found & inside
+    loops: list[np.ndarray | str] = []
+    cuts = np.cumsum(counts)[:-1]
+    for chunk, chunk_found, chunk_ok in zip(
+        np.split(uv, cuts), np.split(found, cuts), np.split(ok, cuts), strict=True
+    ):
+        if chunk_ok.all():
+            loops.append(chunk)
+        elif chunk_found.all():
+            loops.append("it would reach past the sheet's edge")
+        else:
+            loops.append("its outline on the sheet was not found (the sheet curves too much there)")
+    return loops
