@@ -208,6 +208,8 @@ def _print_summary(result) -> None:
         )
     if result.flat is not None and result.flat.marks:
         click.echo(f"  {len(result.flat.marks)} part marks (cut/parts, marks.csv)", err=True)
+    if result.nests is not None:
+        _echo_stock(result.nests.metrics)
     if "nests" in summary:
         click.echo(f"  {summary['nests']['plates']} plates", err=True)
     if "structure" in result.stages_run and result.structure is not None:
@@ -388,3 +390,32 @@ def demo(folder, force, jobs, quiet, debug):
 
 if __name__ == "__main__":
     main()
+
+
+def _echo_stock(metrics: dict) -> None:
+    """Steel bought against net, and the stock suggestion where it buys less."""
+    if metrics.get("net_kg"):
+        click.echo(
+            f"  steel bought {metrics['bought_kg'] / 1000:.2f} t for {metrics['net_kg'] / 1000:.2f} t "
+            f"of parts ({metrics['bought_to_net']:.2f} x)",
+            err=True,
+        )
+    now = {(g["material"], g["thickness_mm"]): g for g in metrics.get("groups", [])}
+    better = [
+        s
+        for s in metrics.get("stock_suggestion", [])
+        if (s["material"], s["thickness_mm"]) in now
+        and s["bought_kg"] < now[(s["material"], s["thickness_mm"])]["bought_kg"] - 1e-6
+    ]
+    for s in better:
+        was = now[(s["material"], s["thickness_mm"])]
+        click.echo(
+            f"  stock: {s['material']} {s['thickness_mm']:g} mm on {s['length_mm']:g} x "
+            f"{s['width_mm']:g} mm plates would buy {s['bought_to_net']:.2f} x net "
+            f"(now {was['bought_kg'] / was['net_kg']:.2f} x)",
+            err=True,
+        )
+    if better:
+        from .flat.stock import stock_toml
+
+        click.echo("  to use it, add to the job:\n" + stock_toml(better), err=True)

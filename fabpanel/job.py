@@ -515,6 +515,46 @@ class MaterialSection(_Section):
     fy: Stress = _default("235 MPa", "stress")
 
 
+class StockSection(_Section):
+    """One ``[[cutting.stock]]`` entry: a stock plate size the shop can buy or has."""
+
+    _table = "cutting.stock"
+
+    length: PositiveLength
+    width: PositiveLength
+    #: plates of this size available (default: as many as needed)
+    count: int | None = Field(default=None, ge=0)
+    #: only for parts of this thickness (default: every thickness)
+    thickness: PositiveLength | None = None
+    #: cost of one plate, or per kg (any currency; default: the plate's weight is its cost, so
+    #: the nest minimises the steel bought)
+    price_per_plate: float | None = Field(default=None, gt=0)
+    price_per_kg: float | None = Field(default=None, gt=0)
+
+    def _check(self, w: _Written) -> None:
+        if self.price_per_plate is not None and self.price_per_kg is not None:
+            raise _RuleError(
+                "price_per_plate",
+                f"{w.label('price_per_plate')} and {w.label('price_per_kg')} are both given; "
+                "give one price per stock plate",
+            )
+
+    @classmethod
+    def of(cls, length: float, width: float) -> StockSection:
+        """A stock size from lengths already in mm (not job text), unlimited and unpriced."""
+        return cls.model_construct(length=float(length), width=float(width))
+
+    def cost(self, kg: float) -> float:
+        """What one plate weighing ``kg`` costs (its weight when no price is given)."""
+        if self.price_per_plate is not None:
+            return self.price_per_plate
+        return kg * (self.price_per_kg or 1.0)
+
+    @property
+    def priced(self) -> bool:
+        return self.price_per_plate is not None or self.price_per_kg is not None
+
+
 class CuttingSection(_Section):
     """[cutting]: stock plates and the plasma table."""
 
@@ -541,6 +581,17 @@ class CuttingSection(_Section):
     #: sheets are unrolled at this fibre of the plate
     neutral_fibre: Literal["mid", "outer", "inner"] = "mid"
     seed: int = Field(default=0, ge=0)
+    #: stock plate sizes to nest on (``[[cutting.stock]]``); default: plate_length x plate_width,
+    #: as many as needed. plate_length and plate_width stay the plate the panels are sized to
+    stock: list[StockSection] = Field(default_factory=list)
+    #: report the standard stock size that buys the least steel per material and thickness
+    suggest_stock: bool = True
+
+    def stock_for(self, thickness: float) -> list[StockSection]:
+        """The stock plates parts of ``thickness`` mm may be nested on."""
+        if not self.stock:
+            return [StockSection.of(self.plate_length, self.plate_width)]
+        return [s for s in self.stock if s.thickness is None or abs(s.thickness - thickness) < 1e-6]
 
     @property
     def usable(self) -> tuple[float, float]:
@@ -556,6 +607,20 @@ class CuttingSection(_Section):
         return "plate_width", "plate_length"
 
     def _check(self, w: _Written) -> None:
+        if len({s.priced for s in self.stock}) > 1:
+            raise _RuleError(
+                "stock",
+                "some [[cutting.stock]] entries have a price and some not; price all of them "
+                "(price_per_plate or price_per_kg) or none (the nest then minimises weight)",
+            )
+        small = [s for s in self.stock if min(s.length, s.width) <= 2 * self.plate_margin]
+        if small:
+            raise _RuleError(
+                "stock",
+                f"a {small[0].length:g} x {small[0].width:g} mm stock plate is all margin "
+                f"(plate_margin {w('plate_margin')} along both edges); remove it or lower the "
+                "margin",
+            )
         if self.part_spacing < self.kerf:
             raise w.conflict(
                 "part_spacing",

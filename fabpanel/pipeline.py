@@ -8,6 +8,7 @@ half-written and an existing folder is never partly overwritten.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import logging
 import os
@@ -242,7 +243,15 @@ def _run_stages(
 
         def cut_and_nest():
             flat = cut(state["model"], job, jobs=jobs)
-            return flat, nest(flat, job, progress=lambda fraction, message: None)
+            nests = nest(flat, job, progress=lambda fraction, message: None)
+            if job.cutting.suggest_stock:
+                from .flat.stock import suggest_stock
+
+                suggestion = suggest_stock(flat, job)
+                nests = dataclasses.replace(
+                    nests, metrics={**nests.metrics, "stock_suggestion": suggestion}
+                )
+            return flat, nests
 
         (flat, nests), timings["cut"] = _timed(progress, "cut", None, cut_and_nest, issues)
         issues += flat.issues + nests.issues

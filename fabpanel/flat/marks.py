@@ -6,10 +6,12 @@ any of its places (the manifest and ``bom.csv`` keep every instance with its pan
 
 Two flat parts are equal when a rotation and a translation in the plane (no mirror: a plate
 turned over shows its other face, which the etched face and the bevels tell apart) put every
-outline vertex, hole centre and contour vertex, and every bend line end, of one within
-``tolerance`` of the other's, with hole diameters equal within ``tolerance`` and the same
-material, thickness, kind, forming and etched face. Outlines sampled differently (another
-vertex count) count as different: marks never merge parts that are not the same.
+outline vertex, hole centre and every bend line end of one within ``tolerance`` of the other's,
+every inner contour (the access slots) within ``tolerance`` of one of the other's (Hausdorff
+distance: a merged slot's vertices fall where float noise puts them), with hole diameters equal
+within ``tolerance`` and the same material, thickness, kind, forming and etched face. Outlines
+sampled differently (another vertex count) count as different: marks never merge parts that are
+not the same.
 """
 
 from __future__ import annotations

@@ -26,6 +26,7 @@ bit (spyrrow's own seed is ``seed`` plus the plate's index).
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -42,7 +43,7 @@ from shapely.geometry import Polygon, box
 from ..data import FlatPart, FlatParts, Nests, Placement, Plate
 from ..errors import Issue, SolverError
 from ..geom.polygon import polygon_area, polyline_length
-from ..job import Job
+from ..job import Job, StockSection
 from .marks import TOLERANCE as MARK_TOLERANCE
 
 log = logging.getLogger(__name__)
@@ -311,6 +312,7 @@ def _nest_group(
     budget_s: float,
     seed: int,
     on_round: Callable[[int], None],
+    stock: StockSection | None = None,
 ) -> tuple[list[list[tuple[_Item, np.ndarray]]], int]:
     """Plates of one group: per plate a list of (item, transform part frame -> plate); and how
     many plates the bounding boxes alone needed.
@@ -322,7 +324,7 @@ def _nest_group(
     whose parts have all moved disappear, so there are never more plates than boxes need.
     """
     cutting = job.cutting
-    length, height = _usable(job)
+    length, height = _usable(job, stock)
     offset = np.eye(3)
     offset[:2, 2] = cutting.plate_margin - grow
     # a part that fits one way only cannot be turned by rectpack: its turned box does not fit
@@ -357,6 +359,103 @@ def _nest_group(
     return plates, len(boxes)
 
 
+_Layout = list[tuple[StockSection, list[tuple[_Item, np.ndarray]]]]
+
+
+def _plate_kg(stock: StockSection, thickness: float, job: Job) -> float:
+    return stock.length * stock.width * thickness * float(job.material.density)
+
+
+def _nest_on_stock(
+    items: list[_Item],
+    job: Job,
+    stocks: list[StockSection],
+    budget_s: float,
+    on_round: Callable[[int], None],
+) -> tuple[_Layout, int, list[_Item]]:
+    """Plates of one group from several stock sizes: ``(stock, placements)`` per plate, the
+    bounding-box plate count of the chosen nests, and the items no stock plate was left for.
+
+    Greedy by cost: every stock size with plates left nests the waiting parts
+    (:func:`_nest_group`, its first ``count`` plates taken, its last plate moved to a cheaper
+    size that holds its parts where there is one); the nest whose plates cost least per mm2 of
+    part placed is kept, and the rest goes round again.
+    """
+    thickness = float(items[0].part.thickness) if items else 0.0
+    grow, seed = _grow(job), job.cutting.seed
+    left: list[int | None] = [s.count for s in stocks]
+    waiting, layout, boxes = list(items), [], 0
+    while waiting:
+        best = None
+        for index, stock in enumerate(stocks):
+            fitting = _on_stock(waiting, job, stock)
+            if left[index] == 0 or not fitting:
+                continue
+            plates, box_count = _nest_group(
+                fitting, job, grow, budget_s, seed, lambda _: None, stock
+            )
+            plates = plates[: left[index]] if left[index] is not None else plates
+            trial_left = list(left)
+            trial_left[index] = None if (n := left[index]) is None else n - len(plates)
+            trial = _cheaper_last_plates(
+                [(stock, members) for members in plates], job, stocks, trial_left, thickness
+            )
+            placed = sum(it.part.area for _, members in trial for it, _ in members)
+            cost = sum(s.cost(_plate_kg(s, thickness, job)) for s, _ in trial)
+            if placed > 0 and (best is None or cost / placed < best[0] - 1e-12):
+                best = (cost / placed, trial, trial_left, box_count)
+        if best is None:
+            break
+        _, trial, left, box_count = best
+        boxes += box_count
+        done = {it.part.id for _, members in trial for it, _ in members}
+        waiting = [it for it in waiting if it.part.id not in done]
+        layout += trial
+        on_round(len(waiting))
+    return layout, boxes, waiting
+
+
+def _cheaper_last_plates(
+    layout: _Layout,
+    job: Job,
+    stocks: list[StockSection],
+    left: list[int | None],
+    thickness: float,
+) -> _Layout:
+    """The last plate of each stock size moved onto the cheapest size (with plates left) that
+    holds its parts, when that costs less; ``left`` is updated."""
+    last = {id(stock): n for n, (stock, _) in enumerate(layout)}
+    grow = _grow(job)
+    out = list(layout)
+    for n in sorted(last.values()):
+        stock, members = out[n]
+        cost = stock.cost(_plate_kg(stock, thickness, job))
+        cheaper = sorted(
+            (
+                (s.cost(_plate_kg(s, thickness, job)), i, s)
+                for i, s in enumerate(stocks)
+                if left[i] != 0 and s is not stock
+            ),
+            key=lambda c: c[0],
+        )
+        for other_cost, i, other in cheaper:
+            if other_cost >= cost:
+                break
+            fitting = _on_stock([it for it, _ in members], job, other)
+            if len(fitting) < len(members):
+                continue
+            packed = _pack_on_plate(fitting, *_usable(job, other), 0, job.cutting.seed + n)
+            if packed is None:
+                continue
+            offset = np.eye(3)
+            offset[:2, 2] = job.cutting.plate_margin - grow
+            out[n] = (other, [(it, offset @ t) for it, t in zip(packed.items, packed.transforms)])
+            remaining = left[i]
+            left[i] = None if remaining is None else remaining - 1
+            break
+    return out
+
+
 def cut_length(part: FlatPart) -> float:
     """Total cut length of a part, mm: outline, polygon holes, round holes."""
     return (
@@ -376,19 +475,35 @@ def _grow(job: Job) -> float:
     return job.cutting.part_spacing / 2 + SAFETY_GAP
 
 
-def _usable(job: Job) -> tuple[float, float]:
-    """(length, height) of the area the grown shapes are packed into on one plate, mm."""
+def _usable(job: Job, stock: StockSection | None = None) -> tuple[float, float]:
+    """(length, height) of the area the grown shapes are packed into on one plate of ``stock``
+    (default: the job's plate), mm."""
     cutting, grow = job.cutting, _grow(job)
-    return (
-        cutting.plate_length - 2 * cutting.plate_margin + 2 * grow,
-        cutting.plate_width - 2 * cutting.plate_margin + 2 * grow,
+    length, width = (
+        (cutting.plate_length, cutting.plate_width)
+        if stock is None
+        else (stock.length, stock.width)
     )
+    return (
+        length - 2 * cutting.plate_margin + 2 * grow,
+        width - 2 * cutting.plate_margin + 2 * grow,
+    )
+
+
+def _on_stock(items: list[_Item], job: Job, stock: StockSection) -> list[_Item]:
+    """The items that fit a plate of ``stock``, each with the rotations it fits in there."""
+    length, height = _usable(job, stock)
+    fitting = []
+    for item in items:
+        rotations = _fitting_rotations(item.shape, list(item.rotations), length, height)
+        if rotations:
+            fitting.append(dataclasses.replace(item, rotations=rotations))
+    return fitting
 
 
 def _groups(flat: FlatParts, job: Job) -> tuple[dict[tuple[str, float], list[_Item]], list[Issue]]:
     """Parts ready for packing, by (material, thickness); issues for parts left out."""
     cutting = job.cutting
-    length, height = _usable(job)
     issues: list[Issue] = []
     groups: dict[tuple[str, float], list[_Item]] = defaultdict(list)
     frames = _mark_frames(flat)
@@ -408,16 +523,19 @@ def _groups(flat: FlatParts, job: Job) -> tuple[dict[tuple[str, float], list[_It
         if key not in shapes:
             shapes[key] = packing_shape(outline, grow)
         shape = shapes[key]
-        rotations = _fitting_rotations(shape, list(cutting.rotations), length, height)
-        if not rotations:
+        stocks = cutting.stock_for(float(part.thickness))
+        rotations = tuple(int(r) for r in cutting.rotations)
+        if not any(
+            _fitting_rotations(shape, list(rotations), *_usable(job, stock)) for stock in stocks
+        ):
             size = outline.max(axis=0) - outline.min(axis=0)
+            sizes = " or ".join(f"{s.length:.0f} x {s.width:.0f}" for s in stocks) or "no stock"
             issues.append(
                 Issue(
                     "part-too-large",
                     f"{part.id} ({size[0]:.0f} x {size[1]:.0f} mm plus {cutting.part_spacing:g} mm "
-                    f"spacing) fits no {cutting.plate_length:.0f} x {cutting.plate_width:.0f} mm "
-                    f"plate with {cutting.plate_margin:g} mm margin in rotations "
-                    f"{list(cutting.rotations)}; it is left out of the nests",
+                    f"spacing) fits no {sizes} mm plate with {cutting.plate_margin:g} mm margin "
+                    f"in rotations {list(cutting.rotations)}; it is left out of the nests",
                     part.id,
                     "error",
                 )
@@ -446,12 +564,14 @@ def _mark_frames(flat: FlatParts) -> dict[str, tuple[FlatPart, np.ndarray]]:
 def bounding_box_plates(flat: FlatParts, job: Job) -> dict[tuple[str, float], int]:
     """Plates per (material, thickness) when only the parts' bounding boxes are packed (the
     naive nest, and the first assignment :func:`nest` improves on)."""
-    length, height = _usable(job)
     turns = {r % 180 for r in job.cutting.rotations} == {0, 90}
     groups, _ = _groups(flat, job)
-    return {
-        key: len(_box_plates(items, length, height, turns)) for key, items in sorted(groups.items())
-    }
+    plates = {}
+    for key, items in sorted(groups.items()):
+        stock = job.cutting.stock_for(key[1])[0]
+        fitting = _on_stock(items, job, stock)
+        plates[key] = len(_box_plates(fitting, *_usable(job, stock), turns)) if fitting else 0
+    return plates
 
 
 def _reporter(
@@ -470,16 +590,14 @@ def _reporter(
 
 
 def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
-    """Nest all flat parts on stock plates.
+    """Nest all flat parts on stock plates (``[cutting]`` plate, or ``[[cutting.stock]]``).
 
     Returns :class:`Nests`: plates numbered from 1 across all (material, thickness) groups, each
     placement's transform (3, 3) maps the part's flat frame to plate coordinates (origin at the
     plate corner, x along the plate length, mm). Issues: ``part-too-large`` (left out),
-    ``invalid-outline`` (left out).
+    ``invalid-outline`` (left out), ``stock-exhausted`` (no plate left for a part).
     """
     cutting = job.cutting
-    grow = _grow(job)
-    plate_area = cutting.plate_length * cutting.plate_width
     started = time.perf_counter()
     groups, issues = _groups(flat, job)
 
@@ -490,38 +608,56 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
     group_metrics = []
     for (material, thickness), items in sorted(groups.items()):
         group_start = time.perf_counter()
-
         on_round = _reporter(
             progress, placed_parts, len(items), total, f"{material} {thickness:g} mm"
         )
-        layout, box_plates = _nest_group(
-            items, job, grow, cutting.nest_time, cutting.seed, on_round
+        stocks = cutting.stock_for(thickness)
+        layout, box_plates, stranded = _nest_on_stock(
+            items, job, stocks, cutting.nest_time, on_round
         )
+        issues += [
+            Issue(
+                "stock-exhausted",
+                f"no [[cutting.stock]] plate left for {it.part.id}: it is left out of the nests; "
+                "raise a stock count or add a size",
+                it.part.id,
+                "error",
+            )
+            for it in stranded
+        ]
         boxes += box_plates
         placed_parts += len(items)
         area = sum(it.part.area for it in items)
-        bound = math.ceil(area / plate_area - 1e-9)
+        largest = max(s.length * s.width for s in stocks)
+        bound = math.ceil(area / largest - 1e-9)
         lower_bound += bound
-        for members in layout:
+        kg_per_mm2 = thickness * float(job.material.density)
+        bought = 0.0
+        for stock, members in layout:
             used = sum(it.part.area for it, _ in members)
             plates.append(
                 Plate(
                     index=len(plates) + 1,
                     material=material,
                     thickness=thickness,
-                    size=(cutting.plate_length, cutting.plate_width),
+                    size=(stock.length, stock.width),
                     placements=tuple(Placement(it.part.id, t @ it.to_shape) for it, t in members),
-                    utilisation=used / plate_area,
+                    utilisation=used / (stock.length * stock.width),
                 )
             )
-        kg_per_mm2 = thickness * float(job.material.density)
+            bought += stock.length * stock.width * kg_per_mm2
+        sizes = Counter(f"{s.length:g} x {s.width:g}" for s, _ in layout)
+        filled = [p.utilisation for p in plates[len(plates) - len(layout) :]]
         group_metrics.append(
             {
                 "material": material,
                 "thickness_mm": thickness,
                 "parts": len(items),
                 "plates": len(layout),
-                "bought_kg": round(len(layout) * plate_area * kg_per_mm2, 2),
+                "plates_by_size": dict(sizes),
+                # the last plate of a group takes what is left; the others should be full
+                "utilisation_min_but_last": round(min(sorted(filled)[1:], default=1.0), 4),
+                "bought_kg": round(bought, 2),
                 "net_kg": round(area * kg_per_mm2, 2),
                 "plates_lower_bound": bound,
                 "bounding_box_plates": box_plates,
@@ -539,14 +675,13 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
 
     by_id = {p.id: p for p in flat.parts}
     placed = [by_id[pl.part_id] for plate in plates for pl in plate.placements]
+    plate_area = sum(p.size[0] * p.size[1] for p in plates)
     metrics = {
         "plates": len(plates),
         "plates_lower_bound": lower_bound,
         "bounding_box_plates": boxes,
         "utilisation_by_plate": {p.name: round(p.utilisation, 4) for p in plates},
-        "utilisation": (
-            sum(p.area for p in placed) / (plate_area * len(plates)) if plates else 0.0
-        ),
+        "utilisation": sum(p.area for p in placed) / plate_area if plates else 0.0,
         "parts_placed": len(placed),
         "parts_left_out": len(flat.parts) - len(placed),
         "cut_length_mm": float(sum(cut_length(p) for p in placed)),

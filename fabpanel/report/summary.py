@@ -60,7 +60,7 @@ def summarise(result, timings: dict[str, float], structure: dict) -> dict:
         summary["nests"] = {
             k: v
             for k, v in result.nests.metrics.items()
-            if not isinstance(v, (list, dict)) or k in ("utilisation",)
+            if not isinstance(v, (list, dict)) or k in ("utilisation", "groups", "stock_suggestion")
         }
         summary["nests"]["plates"] = len(result.nests.plates)
     return summary

@@ -1,0 +1,118 @@
+"""Several stock sizes in one nest, and the stock suggestion: sheets sized like the demo's
+(1256 x 1200 and 1208 x 1200 mm) nest two to a 3000 x 1500 plate but a pair to 2500 x 1250."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_nest import flat_part, rectangle
+
+from fabpanel.data import FlatParts
+from fabpanel.flat import nest, validate_nests
+from fabpanel.flat.stock import STANDARD_WIDTHS, stock_toml, suggest_stock
+from fabpanel.job import Job
+
+
+def sheets(count: int = 6) -> FlatParts:
+    parts = [flat_part(f"P{i:03d}-TOP", rectangle(1256.0, 1200.0)) for i in range(count)]
+    parts += [flat_part(f"P{i:03d}-BOT", rectangle(1208.0, 1200.0)) for i in range(count)]
+    return FlatParts(parts=tuple(parts))
+
+
+def job(stock=None, **cutting):
+    section = {"nest_time": "0 s", **cutting}
+    if stock is not None:
+        section["stock"] = stock
+    return Job.from_dict({"cutting": section})
+
+
+def kg(plates, thickness=3.0):
+    return sum(p.size[0] * p.size[1] for p in plates) * thickness * 7.85e-6
+
+
+def test_the_nest_takes_the_stock_size_that_buys_least():
+    flat = sheets()
+    wide, narrow = (
+        {"length": "3000 mm", "width": "1500 mm"},
+        {"length": "2500 mm", "width": "1250 mm"},
+    )
+    j = job([wide, narrow])
+    nests = nest(flat, j)
+    assert validate_nests(nests, flat, j) == []
+    assert {p.size for p in nests.plates} == {(2500.0, 1250.0)}
+    assert len(nests.plates) == 6  # a top and a bottom sheet on each
+    # against the single 3000 x 1500 plate: the same plate count, 31 % less steel
+    alone = nest(flat, job([wide]))
+    assert len(alone.plates) == 6
+    assert kg(nests.plates) < 0.7 * kg(alone.plates)
+    np.testing.assert_allclose(nests.metrics["bought_kg"], kg(nests.plates), atol=0.01)
+    group = nests.metrics["groups"][0]
+    assert group["plates_by_size"] == {"2500 x 1250": 6}
+    assert group["utilisation_min_but_last"] > 0.9
+
+
+def test_a_limited_stock_is_used_up_before_the_next_size():
+    flat = sheets()
+    j = job(
+        [
+            {"length": "2500 mm", "width": "1250 mm", "count": 2},
+            {"length": "3000 mm", "width": "1500 mm"},
+        ]
+    )
+    nests = nest(flat, j)
+    assert validate_nests(nests, flat, j) == []
+    sizes = [p.size for p in nests.plates]
+    assert sizes.count((2500.0, 1250.0)) == 2
+    assert nests.metrics["parts_placed"] == len(flat.parts)
+
+
+def test_parts_without_a_plate_left_are_errors():
+    flat = sheets(3)
+    j = job([{"length": "2500 mm", "width": "1250 mm", "count": 2}])
+    nests = nest(flat, j)
+    stranded = [i for i in nests.issues if i.code == "stock-exhausted"]
+    assert len(stranded) == 2 and all(i.severity == "error" for i in stranded)
+    assert validate_nests(nests, flat, j) == [
+        f"{i.item} is placed 0 times, expected 1" for i in stranded
+    ]
+
+
+def test_the_last_plate_moves_to_a_smaller_size_when_that_costs_less():
+    # five sheets: two 2500 x 1250 plates of pairs and one sheet alone, which a 1500 x 1250
+    # plate holds for less
+    parts = [flat_part(f"P{i:03d}-TOP", rectangle(1200.0, 1200.0)) for i in range(5)]
+    flat = FlatParts(parts=tuple(parts))
+    j = job([{"length": "2500 mm", "width": "1250 mm"}, {"length": "1500 mm", "width": "1250 mm"}])
+    nests = nest(flat, j)
+    assert validate_nests(nests, flat, j) == []
+    assert sorted(p.size for p in nests.plates) == [(1500.0, 1250.0)] + [(2500.0, 1250.0)] * 2
+
+
+def test_prices_must_be_given_for_all_stock_or_none():
+    with pytest.raises(Exception, match="price all of them"):
+        job(
+            [
+                {"length": "2500 mm", "width": "1250 mm", "price_per_kg": 1.1},
+                {"length": "3000 mm", "width": "1500 mm"},
+            ]
+        )
+
+
+def test_the_suggestion_buys_less_than_the_job_plate_and_pastes_back():
+    flat = sheets()
+    j = job()
+    suggestion = suggest_stock(flat, j)
+    assert len(suggestion) == 1
+    best = suggestion[0]
+    assert best["width_mm"] in STANDARD_WIDTHS
+    now = nest(flat, j).metrics
+    assert best["bought_kg"] < now["bought_kg"]
+    assert best["bought_to_net"] < 1.15
+    np.testing.assert_allclose(best["net_kg"], now["net_kg"], rtol=1e-3)
+    # the suggestion as job text gives a nest that buys what it said
+    text = stock_toml(suggestion)
+    import tomllib
+
+    stock = tomllib.loads(text)["cutting"]["stock"]
+    again = nest(flat, job(stock))
+    np.testing.assert_allclose(again.metrics["bought_kg"], best["bought_kg"], rtol=1e-3)
