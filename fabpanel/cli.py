@@ -388,10 +388,6 @@ def demo(folder, force, jobs, quiet, debug):
         _fail(err, debug)
 
 
-if __name__ == "__main__":
-    main()
-
-
 def _echo_stock(metrics: dict) -> None:
     """Steel bought against net, and the stock suggestion where it buys less."""
     if metrics.get("net_kg"):
@@ -419,3 +415,7 @@ def _echo_stock(metrics: dict) -> None:
         from .flat.stock import stock_toml
 
         click.echo("  to use it, add to the job:\n" + stock_toml(better), err=True)
+
+
+if __name__ == "__main__":
+    main()

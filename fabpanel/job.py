@@ -581,17 +581,19 @@ class CuttingSection(_Section):
     #: sheets are unrolled at this fibre of the plate
     neutral_fibre: Literal["mid", "outer", "inner"] = "mid"
     seed: int = Field(default=0, ge=0)
-    #: stock plate sizes to nest on (``[[cutting.stock]]``); default: plate_length x plate_width,
-    #: as many as needed. plate_length and plate_width stay the plate the panels are sized to
+    #: stock plate sizes to nest on (``[[cutting.stock]]``); a thickness no entry names (and every
+    #: thickness without entries) is nested on plate_length x plate_width, as many as needed.
+    #: plate_length and plate_width stay the plate the panels are sized to
     stock: list[StockSection] = Field(default_factory=list)
     #: report the standard stock size that buys the least steel per material and thickness
     suggest_stock: bool = True
 
     def stock_for(self, thickness: float) -> list[StockSection]:
         """The stock plates parts of ``thickness`` mm may be nested on."""
-        if not self.stock:
-            return [StockSection.of(self.plate_length, self.plate_width)]
-        return [s for s in self.stock if s.thickness is None or abs(s.thickness - thickness) < 1e-6]
+        listed = [
+            s for s in self.stock if s.thickness is None or abs(s.thickness - thickness) < 1e-6
+        ]
+        return listed or [StockSection.of(self.plate_length, self.plate_width)]
 
     @property
     def usable(self) -> tuple[float, float]:

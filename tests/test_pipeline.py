@@ -111,19 +111,17 @@ def test_output_contract(vault_run):
 
 def test_step_reimports_to_the_manifest_parts(vault_run):
     from OCP.BRepCheck import BRepCheck_Analyzer
-    from OCP.BRepGProp import BRepGProp
-    from OCP.GProp import GProp_GProps
 
-    from fabpanel.model import read_step_parts
+    from fabpanel.model import occ, read_step_parts
 
     shapes = read_step_parts(vault_run.out_dir / "model" / "assembly.step")
     parts = {p.id: p for p in vault_run.model.parts}
     assert set(shapes) == set(parts)
     for name, shape in shapes.items():
         assert BRepCheck_Analyzer(shape).IsValid(), name
-        props = GProp_GProps()
-        BRepGProp.VolumeProperties_s(shape, props)
-        assert props.Mass() == pytest.approx(parts[name].volume, rel=TOLERANCES.step_volume)
+        # the same adaptive integration the build measures with: OCCT's default Gauss rule is
+        # 0.2 % off on a sheet with access slots (trimmed B-spline faces)
+        assert occ.volume(shape) == pytest.approx(parts[name].volume, rel=TOLERANCES.step_volume)
 
 
 def test_unrolled_sheet_edges_equal_the_3d_arc_lengths(vault_run):

@@ -452,6 +452,10 @@ def _cheaper_last_plates(
             out[n] = (other, [(it, offset @ t) for it, t in zip(packed.items, packed.transforms)])
             remaining = left[i]
             left[i] = None if remaining is None else remaining - 1
+            given = stocks.index(stock) if stock in stocks else -1
+            back = left[given] if given >= 0 else None
+            if back is not None:
+                left[given] = back + 1  # the plate it leaves is the shop's again
             break
     return out
 
@@ -627,7 +631,8 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
         ]
         boxes += box_plates
         placed_parts += len(items)
-        area = sum(it.part.area for it in items)
+        stranded_ids = {it.part.id for it in stranded}
+        area = sum(it.part.area for it in items if it.part.id not in stranded_ids)
         largest = max(s.length * s.width for s in stocks)
         bound = math.ceil(area / largest - 1e-9)
         lower_bound += bound

@@ -52,7 +52,9 @@ def tool_envelope(design: AccessDesign) -> m3d.Manifold:
     angles = np.linspace(-tool.swing / 2, tool.swing / 2, SWING_STEPS)
     turned = [handle.rotate((0.0, float(a), 0.0)) for a in angles]
     sweeps = [m3d.Manifold.batch_hull([a, b]) for a, b in itertools.pairwise(turned)]
-    return m3d.Manifold.batch_boolean([insertion, onto, *sweeps], m3d.OpType.Add)
+    # the handle rides along with the head while it slides onto the hex
+    riding = m3d.Manifold.batch_hull([handle, handle.translate((0.0, design.slide, 0.0))])
+    return m3d.Manifold.batch_boolean([insertion, onto, riding, *sweeps], m3d.OpType.Add)
 
 
 def slot_prism(design: AccessDesign, depth: float) -> m3d.Manifold:

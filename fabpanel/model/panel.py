@@ -706,7 +706,8 @@ def _clearance_findings(
 def _reach_findings(
     pid: str, parts: list[dict], frames: dict[int, np.ndarray], design: AccessDesign
 ) -> list[Finding]:
-    """Openings that run under a rib or a stiffener (``access-clash``), and bolts the tool
+    """Openings that run under a rib or a stiffener (``access-clash``, a warning as before: the
+    plate loses some of its seat on the sheet), and bolts the tool
     cannot reach (``bolt-unreachable``, error): no slot was cut for them, or the tool's path
     hits a part of the panel (:func:`fabpanel.model.access.blocked_bolts`)."""
     sheet = next((p for p in parts if p["kind"].startswith("sheet") and p["openings"]), None)
@@ -735,7 +736,6 @@ def _reach_findings(
                                 f"the access slot of {_bolt_names(pid, opening.bolts)} runs "
                                 f"under {part['id']} ({shared:.0f} mm3)"
                             ),
-                            "error",
                         )
                     )
         solids[part["id"]] = solid
