@@ -132,3 +132,31 @@ def test_a_stiffener_over_the_corner_bolts_makes_them_unreachable_and_named(deve
     assert model.metrics["bolts_unreachable"] == len(model.metrics["bolts_unreachable_ids"]) > 0
     # only the bolts next to the corners
     assert model.metrics["bolts_unreachable"] < model.metrics["bolts_total"]
+
+
+def test_end_bolts_move_out_from_under_a_leaning_stiffener(tmp_path):
+    """Two 1 m panels of a dome (radius ~12 m): at the shared rib's ends the corner
+    stiffeners, standing along the corner normals, lean over the slots of bolts at the default
+    60 mm. The build moves those end bolts into the stiffeners' pockets, the same on both ribs."""
+    from test_packaging import _grid_obj
+
+    import fabpanel as fp
+
+    _grid_obj(tmp_path / "patch.obj")
+    job = fp.Job.from_dict(
+        {
+            "input": {"path": str(tmp_path / "patch.obj"), "units": "m"},
+            "panelize": {"panel_size": "1 m"},
+        }
+    )
+    model = fp.run(job, until="build", write=False, jobs=1).model
+    assert not [i for i in model.issues if i.code in ("access-clash", "bolt-unreachable")]
+    assert model.metrics["bolts_unreachable"] == 0
+    assert model.metrics["max_bolt_coaxial_error_mm"] < 1e-6
+    rib = next(p for p in model.parts if p.kind == "rib" and p.holes)
+    along = sorted(h.centre[0] for h in rib.holes)
+    span = np.ptp(rib.outline[:, 0])
+    # both end bolts nearer their corners than the job's 60 mm
+    assert along[0] - rib.outline[:, 0].min() < 60.0 - 1.0
+    assert rib.outline[:, 0].max() - along[-1] < 60.0 - 1.0
+    assert span > 900.0

@@ -45,6 +45,7 @@ from ..errors import Issue, KernelError
 from ..job import Job
 from ..parallel import worker_pool
 from ..tolerances import TOLERANCES
+from .bolt_moves import MOVE_ROUNDS, move_blocked_end_bolts
 from .clash import find_clashes, part_solid
 from .panel import build_panel
 
@@ -128,26 +129,14 @@ def build(
     ]
     workers = max(1, min(jobs or os.cpu_count() or 1, m))
     results: list[dict[str, Any] | None] = [None] * m
-    if workers == 1:
-        for p, payload in enumerate(payloads):
-            results[p] = _build_or_failure(payload)
-            if progress:
-                progress(1)
-    else:
-        with worker_pool(workers) as pool:
-            futures = {
-                pool.submit(_build_or_failure, payload): p for p, payload in enumerate(payloads)
-            }
-            for future in as_completed(futures):
-                p = futures[future]
-                try:
-                    results[p] = future.result()
-                except (BrokenProcessPool, MemoryError):
-                    raise  # a worker died or memory ran out: stop the run
-                except Exception as err:  # noqa: BLE001 - e.g. a result that did not unpickle
-                    results[p] = _failure(developed.panel_ids[p], developed.panel_ids[p], err)
-                if progress:
-                    progress(1)
+    _run_payloads(payloads, list(range(m)), results, workers, developed, progress)
+    if settings["access"] is not None:
+        # end bolts the tool cannot reach are moved along their joint, both panels rebuilt
+        for _ in range(MOVE_ROUNDS):
+            moved = move_blocked_end_bolts(developed, payloads, results, settings)
+            if not moved:
+                break
+            _run_payloads(payloads, sorted(moved), results, workers, developed, None)
 
     # every panel was waited for: each result is a panel's parts or its failure
     done = [r for r in results if r is not None and "failure" not in r]
@@ -205,6 +194,36 @@ def build(
         f" ({len(failed)} panels not built)" if failed else "",
     )
     return Model(parts=tuple(parts), developed=developed, metrics=metrics, issues=tuple(issues))
+
+
+def _run_payloads(
+    payloads: list[dict[str, Any]],
+    indices: list[int],
+    results: list[dict[str, Any] | None],
+    workers: int,
+    developed: DevelopedPanels,
+    progress: Callable[[int], None] | None,
+) -> None:
+    """Build the panels ``indices`` (inline with one worker, else in worker processes) into
+    ``results``."""
+    if workers == 1 or len(indices) == 1:
+        for p in indices:
+            results[p] = _build_or_failure(payloads[p])
+            if progress:
+                progress(1)
+        return
+    with worker_pool(min(workers, len(indices))) as pool:
+        futures = {pool.submit(_build_or_failure, payloads[p]): p for p in indices}
+        for future in as_completed(futures):
+            p = futures[future]
+            try:
+                results[p] = future.result()
+            except (BrokenProcessPool, MemoryError):
+                raise  # a worker died or memory ran out: stop the run
+            except Exception as err:  # noqa: BLE001 - e.g. a result that did not unpickle
+                results[p] = _failure(developed.panel_ids[p], developed.panel_ids[p], err)
+            if progress:
+                progress(1)
 
 
 def _build_or_failure(payload: dict[str, Any]) -> dict[str, Any]:

@@ -19,15 +19,19 @@ import numpy as np
 ACCESS_CLEARANCE = 10.0
 
 
-def bolt_stations(length: float, spacing: float, edge_distance: float) -> np.ndarray:
+def bolt_stations(
+    length: float, spacing: float, edge_distance: float, end_distance: float | None = None
+) -> np.ndarray:
     """(n,) float: arc lengths of the bolts along a side of ``length`` mm, evenly spread
-    between ``edge_distance`` from both ends, at most ``spacing`` apart; one bolt in the middle
-    of a side too short for two."""
-    usable = length - 2 * edge_distance
+    between ``edge_distance`` from the start and ``end_distance`` (default the same) from the
+    end, at most ``spacing`` apart; one bolt in the middle of a side too short for two. The set
+    read from the other end (``length - s``, reversed) is the one with the distances swapped."""
+    end = edge_distance if end_distance is None else end_distance
+    usable = length - edge_distance - end
     if usable <= 0:
         return np.array([length / 2])
     count = int(np.ceil(usable / spacing - 1e-9)) + 1
-    return np.linspace(edge_distance, length - edge_distance, count)
+    return np.linspace(edge_distance, length - end, count)
 
 
 def along_polyline(points: np.ndarray, stations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -47,6 +51,7 @@ def bolt_centres(
     depth: float,
     spacing: float,
     edge_distance: float,
+    stations: np.ndarray | None = None,
 ) -> np.ndarray:
     """(n, 3) float: bolt hole centres of one joint, in the rib plane, mm.
 
@@ -54,9 +59,12 @@ def bolt_centres(
     plane : (4,) float, unit normal, ``n . x = d``.
     depth : offset along the normals from the design face to the middle of the rib height
         (negative: below the design face).
+    stations : arc lengths of the bolts (default :func:`bolt_stations` with ``spacing`` and
+        ``edge_distance``): the build moves a joint's end bolts where the tool cannot reach them.
     """
     length = float(np.linalg.norm(np.diff(side_points, axis=0), axis=1).sum())
-    stations = bolt_stations(length, spacing, edge_distance)
+    if stations is None:
+        stations = bolt_stations(length, spacing, edge_distance)
     points, index = along_polyline(side_points, stations)
     lower = np.minimum(np.floor(index).astype(int), len(side_points) - 2)
     frac = (index - lower)[:, None]

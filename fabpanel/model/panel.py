@@ -133,6 +133,7 @@ def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict
                 mid,
                 bolt["spacing"],
                 bolt["edge_distance"],
+                payload.get("stations", {}).get(int(interior_side)),
             )
     measures["sheet_fit_error_mm"] = max(f.fit_error for f in faces.values())
     measures["sheet_trim_slide_mm"] = max(float(f.slide.max()) for f in faces.values())
@@ -253,7 +254,9 @@ def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict
         building(pid)
         findings += _clearance_findings(pid, parts, bolts, payload)
         if design is not None:
-            findings += _reach_findings(pid, parts, frames, design)
+            reach_findings, blocked = _reach_findings(pid, parts, frames, design)
+            findings += reach_findings
+            measures["bolts_in_the_way"] = blocked
     findings += [
         ("access-clash", part["id"], message)
         for part in parts
@@ -264,12 +267,9 @@ def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict
         sum(len(p["openings"]) for p in parts if p["kind"].startswith("sheet"))
     )
     # (side, bolt index) of each bolt the tool cannot reach from this panel
+    # (side, bolt index) of each bolt the tool cannot reach from this panel
     measures["bolts_unreachable"] = sorted(
-        {
-            (int(f[1].rsplit("-", 1)[1]), int(str(f[2]).split(":")[0].rsplit(" ", 1)[1]))
-            for f in findings
-            if f[0] == "bolt-unreachable"
-        }
+        {(b[0], b[1]) for b in measures.get("bolts_in_the_way", []) if b[3]}
     )
     measures["bolts_checked"] = design is not None
     measures["valid"] = all(p["valid"] for p in parts)
@@ -705,11 +705,13 @@ def _clearance_findings(
 
 def _reach_findings(
     pid: str, parts: list[dict], frames: dict[int, np.ndarray], design: AccessDesign
-) -> list[Finding]:
+) -> tuple[list[Finding], list[tuple[int, int, str, bool]]]:
     """Openings that run under a rib or a stiffener (``access-clash``, a warning as before: the
     plate loses some of its seat on the sheet), and bolts the tool
     cannot reach (``bolt-unreachable``, error): no slot was cut for them, or the tool's path
-    hits a part of the panel (:func:`fabpanel.model.access.blocked_bolts`)."""
+    hits a part of the panel (:func:`fabpanel.model.access.blocked_bolts`). Also the bolts in
+    the way: ``(side, index, part id in the way or "", unreachable)``, for the build to move."""
+    in_the_way: list[tuple[int, int, str, bool]] = []
     sheet = next((p for p in parts if p["kind"].startswith("sheet") and p["openings"]), None)
     openings: list[Opening] = sheet["openings"] if sheet else []
     cut = {bolt for o in openings for bolt in o.bolts}
@@ -728,6 +730,7 @@ def _reach_findings(
             for opening, prism in prisms:
                 shared = float((solid ^ prism).volume())
                 if shared > REACH_OVERLAP:
+                    in_the_way += [(b[0], b[1], part["id"], False) for b in opening.bolts]
                     findings.append(
                         (
                             "access-clash",
@@ -742,6 +745,7 @@ def _reach_findings(
     for side, stack in frames.items():
         for i in range(len(stack)):
             if (side, i) not in cut:
+                in_the_way.append((side, i, "", True))
                 findings.append(
                     (
                         "bolt-unreachable",
@@ -753,6 +757,7 @@ def _reach_findings(
     for side, i, part_id, shared in blocked_bolts(design, frames, solids):
         if (side, i) not in cut:
             continue
+        in_the_way.append((side, i, part_id, True))
         centre = np.round(frames[side][i][:3, 3], 1).tolist()
         findings.append(
             (
@@ -767,4 +772,4 @@ def _reach_findings(
                 "error",
             )
         )
-    return findings
+    return findings, in_the_way
