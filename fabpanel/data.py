@@ -380,6 +380,8 @@ class FlatPart:
         ribs and stiffeners: which way the drawn face looks, as etched (``IN``: into the panel).
     mark : str
         the part mark (:mod:`fabpanel.flat.marks`): parts equal within 0.1 mm share it.
+    bend_tick : float
+        sheets: bend lines are etched as ticks this long at the edges (0: full lines), mm.
     """
 
     id: str
@@ -400,6 +402,7 @@ class FlatPart:
     forming: str = ""
     face: str = ""
     mark: str = ""
+    bend_tick: float = 0.0
     files: tuple[str, ...] = ()
 
     @property

@@ -580,6 +580,9 @@ class CuttingSection(_Section):
     min_plasma_hole: float = Field(default=1.0, ge=0.0, le=5.0)
     #: sheets are unrolled at this fibre of the plate
     neutral_fibre: Literal["mid", "outer", "inner"] = "mid"
+    #: bend lines etched as short ticks at the sheet's edges (the roller lines them up), or as
+    #: full lines across the sheet
+    bend_marks: Literal["ticks", "lines"] = "ticks"
     seed: int = Field(default=0, ge=0)
     #: stock plate sizes to nest on (``[[cutting.stock]]``); a thickness no entry names (and every
     #: thickness without entries) is nested on plate_length x plate_width, as many as needed.

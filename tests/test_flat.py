@@ -156,8 +156,23 @@ def test_cut_sheets_and_ribs(tmp_path):
     assert len(cone.bend_lines) > 0
     # the mark first, then the part (unique here) and the forming
     assert [p.mark for p in flat.parts] == ["T001", "T002", "R001"]
-    assert [label[0] for label in top.labels] == ["T001", "P001-TOP", "OUT CONVEX R4000"]
+    assert [label[0] for label in top.labels] == [
+        "T001",
+        "P001-TOP",
+        "OUT CONVEX R4000",
+        "RIB FACE UP",
+    ]
+    # "OUT CONVEX" still names the outer face, though the top sheet is drawn from below
     assert top.forming == "OUT CONVEX R4000" and cone.forming == "OUT CONVEX R866-1501"
+    # drawn as seen from the rib face: the flattening (seen from outside) mirrored
+    from fabpanel.flat.unroll import grid_outline
+
+    seen_from_outside = grid_outline(flatten_grid(grid)[0])
+    mirrored = seen_from_outside * [-1.0, 1.0]
+    gaps = np.linalg.norm(top.outline[:, None] - mirrored[None], axis=2)
+    assert gaps.min(axis=1).max() < 1e-9 and len(top.outline) == len(mirrored)
+    outside = np.linalg.norm(top.outline[:, None] - seen_from_outside[None], axis=2)
+    assert outside.min(axis=1).max() > 100.0
     # bend lines stop short of the etched labels (the middle ones run through them)
     from shapely.geometry import LineString
 
@@ -325,3 +340,28 @@ def test_stroke_font_covers_label_characters():
 @pytest.mark.parametrize("grid", [cylinder_grid(9, 5), cone_grid(5, 9)])
 def test_coarse_grids_still_exact(grid):
     assert flatten_grid(grid)[1] < 1e-6
+
+
+@pytest.mark.parametrize("marks", ["ticks", "lines"])
+def test_bend_lines_are_etched_as_ticks_at_the_edges_by_default(marks):
+    from shapely.geometry import LineString
+
+    from fabpanel.flat.dxf import bend_marks
+    from fabpanel.flat.unroll import BEND_TICK
+
+    model = Model(parts=(sheet(cylinder_grid()),), developed=None)  # type: ignore[arg-type]
+    top = cut(model, Job.from_dict({"cutting": {"bend_marks": marks}})).parts[0]
+    edge = Polygon(top.outline).exterior
+    etched = bend_marks(top)
+    full = sum(np.linalg.norm(b[1] - b[0]) for b in top.bend_lines)
+    if marks == "lines":
+        assert len(etched) == len(top.bend_lines)
+        return
+    # two ticks per bend line, each from the sheet's edge inwards, BEND_TICK long
+    lines = len({tuple(np.round(b[0], 3)) for b in top.bend_lines})
+    assert len(etched) >= 2 * min(lines, 1) and len(etched) % 2 == 0
+    for tick in etched:
+        assert edge.distance(Point(tick[0])) < 1.0
+        assert np.linalg.norm(tick[1] - tick[0]) == pytest.approx(BEND_TICK)
+        assert Polygon(top.outline).buffer(1e-6).contains(LineString(tick))
+    assert sum(np.linalg.norm(t[1] - t[0]) for t in etched) < 0.2 * full

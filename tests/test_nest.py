@@ -155,18 +155,24 @@ def test_write_nests(mixed, tmp_path):
         assert (tmp_path / png).stat().st_size > 1000
     import ezdxf
 
+    from fabpanel.flat.dxf import exploded
+
     doc = ezdxf.readfile(tmp_path / files["plate-001"][0])
     msp = doc.modelspace()
-    layers = [e.dxf.layer for e in msp]
-    assert layers[0] == "PLATE"
+    # the plate outline on a layer never cut or plotted, then one INSERT per part
+    assert next(e.dxf.layer for e in msp) == "PLATE" and doc.layers.get("PLATE").dxf.plot == 0
+    inserts = msp.query("INSERT")
+    assert len(inserts) == len(nests.plates[0].placements)
+    assert {i.dxf.name for i in inserts} <= {p.mark or p.id for p in flat.parts}
     # the header's extents are the plate (its outline is the outermost entity)
     np.testing.assert_allclose(doc.header["$EXTMIN"][:2], [0.0, 0.0], atol=1e-6)
     np.testing.assert_allclose(doc.header["$EXTMAX"][:2], nests.plates[0].size, atol=1e-6)
-    # cut order: etching, then each part's holes before its outer contour: every inner contour
+    # cut order: per part, etching, then its holes before its outer contour: every inner contour
     # lies inside the next outer contour in the file
     from shapely.geometry import Point, Polygon
 
-    cuts = [e for e in msp if e.dxf.layer.startswith("CUT")]
+    entities = exploded(msp)
+    cuts = [e for e in entities if e.dxf.layer.startswith("CUT")]
     for index, entity in enumerate(cuts):
         if entity.dxf.layer != "CUT-INNER":
             continue
@@ -178,7 +184,9 @@ def test_write_nests(mixed, tmp_path):
         following = next(e for e in cuts[index + 1 :] if e.dxf.layer == "CUT-OUTER")
         outline = Polygon([p[:2] for p in following.get_points()])
         assert outline.contains(Point(centre[0], centre[1]))
-    assert max(i for i, x in enumerate(layers) if x == "ETCH") < layers.index("CUT-OUTER")
+    for insert in inserts:
+        inside = [e.dxf.layer for e in insert.virtual_entities()]
+        assert max(i for i, x in enumerate(inside) if x == "ETCH") < inside.index("CUT-OUTER")
 
 
 def test_plate_files_hold_the_parts_at_their_spacing(mixed, tmp_path):
@@ -189,6 +197,7 @@ def test_plate_files_hold_the_parts_at_their_spacing(mixed, tmp_path):
     from shapely.geometry import Polygon, box
 
     from fabpanel.flat import part_area_from_dxf, write_parts
+    from fabpanel.flat.dxf import exploded
 
     flat, nests = mixed
     part_files = write_parts(flat, tmp_path / "parts")
@@ -200,7 +209,8 @@ def test_plate_files_hold_the_parts_at_their_spacing(mixed, tmp_path):
         path = tmp_path / "nests" / plate_files[plate.name][0]
         outers = [
             Polygon([(v.x, v.y) for v in make_path(e).flattening(0.01)])
-            for e in ezdxf.readfile(path).modelspace().query('LWPOLYLINE[layer=="CUT-OUTER"]')
+            for e in exploded(ezdxf.readfile(path).modelspace())
+            if e.dxftype() == "LWPOLYLINE" and e.dxf.layer == "CUT-OUTER"
         ]
         assert len(outers) == len(plate.placements)
         usable = box(

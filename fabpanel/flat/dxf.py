@@ -7,9 +7,12 @@ round holes, no SPLINE/ELLIPSE/TEXT. Layers by operation:
 
 ``CUT-OUTER``  outer contours (cut last)
 ``CUT-INNER``  holes (cut first)
-``ETCH``       labels as single-stroke polylines, bend lines, drill centre crosses (marked)
+``ETCH``       labels as single-stroke polylines, bend lines (ticks at the edges by default),
+               drill centre crosses (marked)
 ``DRILL``      round holes too small for the plasma (drilled after cutting, not pierced)
-``PLATE``      the stock plate outline (nests only)
+``PLATE``      the stock plate outline (nests only; never cut, not plotted)
+
+Plate files hold one block per part mark and an INSERT per part (:mod:`.nest_output`).
 """
 
 from __future__ import annotations
@@ -58,13 +61,38 @@ def _apply(transform: np.ndarray | None, points: np.ndarray) -> np.ndarray:
 def etch_polylines(part: FlatPart) -> list[np.ndarray]:
     """(k, 2) polylines to etch for a part in its flat frame: etch, bend lines, label strokes."""
     lines = [np.asarray(p, dtype=float) for p in part.etch]
-    lines += [np.asarray(b, dtype=float) for b in part.bend_lines]
+    lines += bend_marks(part)
     for text, x, y, height, angle in part.labels:
         lines += text_strokes(text, x, y, height, angle)
     for hole in part.drill_holes:  # a centre cross for the drill
         centre, arm = np.asarray(hole.centre, dtype=float), 0.75 * hole.diameter
         lines += [centre + [[-arm, 0.0], [arm, 0.0]], centre + [[0.0, -arm], [0.0, arm]]]
     return lines
+
+
+#: a bend line piece ending this close to the outline ends at the sheet's edge, mm
+EDGE_GAP = 1.0
+
+
+def bend_marks(part: FlatPart) -> list[np.ndarray]:
+    """The bend lines to etch: whole, or (``part.bend_tick`` > 0) a tick that long from each
+    end at the sheet's edge, the roller's guide, leaving the sheet's face unmarked between."""
+    lines = [np.asarray(b, dtype=float) for b in part.bend_lines]
+    if part.bend_tick <= 0:
+        return lines
+    from shapely.geometry import Point, Polygon
+
+    edge = Polygon(part.outline).exterior
+    ticks = []
+    for start, end in lines:
+        length = float(np.linalg.norm(end - start))
+        if length < 1e-9:
+            continue
+        step = (end - start) / length * min(part.bend_tick, length / 2)
+        for tip, inward in ((start, step), (end, -step)):
+            if edge.distance(Point(tip)) <= EDGE_GAP:
+                ticks.append(np.array([tip, tip + inward]))
+    return ticks
 
 
 def add_part(msp, part: FlatPart, transform: np.ndarray | None = None, etch: bool = True) -> None:
@@ -154,14 +182,27 @@ def audit_dxf(path: str | Path) -> list[str]:
     problems = [str(e.message) for e in doc.audit().errors]
     if doc.header.get("$INSUNITS") != 4:
         problems.append(f"$INSUNITS is {doc.header.get('$INSUNITS')}, not 4 (mm)")
-    kinds = {e.dxftype() for e in doc.modelspace()}
+    entities = exploded(doc.modelspace())
+    kinds = {e.dxftype() for e in entities}
     problems += [f"{kind} entity present" for kind in FORBIDDEN if kind in kinds]
     problems += [
         f"open contour on {e.dxf.layer}"
-        for e in doc.modelspace()
+        for e in entities
         if isinstance(e, LWPolyline) and e.dxf.layer.startswith("CUT") and not e.closed
     ]
     return problems
+
+
+def exploded(layout) -> list:
+    """A layout's entities in file order, every INSERT replaced by its block's entities placed
+    as inserted (ezdxf virtual entities): what a CAM program cuts."""
+    out = []
+    for entity in layout:
+        if entity.dxftype() == "INSERT":
+            out += exploded(entity.virtual_entities())
+        else:
+            out.append(entity)
+    return out
 
 
 def _polyline_area(entities: Iterable) -> float:
@@ -176,10 +217,12 @@ def _polyline_area(entities: Iterable) -> float:
 def part_area_from_dxf(path: str | Path) -> float:
     """Net part area, mm2: CUT-OUTER polylines minus CUT-INNER polylines and circles and the
     DRILL circles."""
-    msp = ezdxf.readfile(str(path)).modelspace()
-    outer = _polyline_area(msp.query('LWPOLYLINE[layer=="CUT-OUTER"]'))
-    inner = _polyline_area(msp.query('LWPOLYLINE[layer=="CUT-INNER"]'))
-    circles = sum(
-        np.pi * c.dxf.radius**2 for c in msp.query('CIRCLE[layer=="CUT-INNER" | layer=="DRILL"]')
-    )
+    entities = exploded(ezdxf.readfile(str(path)).modelspace())
+
+    def of(kind: str, *layers: str) -> list:
+        return [e for e in entities if e.dxftype() == kind and e.dxf.layer in layers]
+
+    outer = _polyline_area(of("LWPOLYLINE", "CUT-OUTER"))
+    inner = _polyline_area(of("LWPOLYLINE", "CUT-INNER"))
+    circles = sum(np.pi * c.dxf.radius**2 for c in of("CIRCLE", "CUT-INNER", "DRILL"))
     return float(outer - inner - circles)

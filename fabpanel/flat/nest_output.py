@@ -1,7 +1,8 @@
 """Plate files: one plasma DXF and one PNG preview per nested plate.
 
-DXF entity order is the cut order: all etching first (marking before the parts are cut loose), then
-per part its inner contours before its outer contour. The PNG is a quick matplotlib preview (parts
+A plate DXF holds one block per part mark (the mark's first part: etching, inner contours, outer
+contour, in cut order) and an INSERT per part placed; the plate outline is on ``PLATE``, a layer
+never cut (and not plotted). The PNG is a quick matplotlib preview (parts
 filled, labelled with their ids, bend lines in green), about 0.2 s per plate.
 """
 
@@ -21,15 +22,27 @@ from matplotlib.path import Path as MplPath
 from shapely.geometry import Polygon
 
 from ..data import FlatPart, FlatParts, Nests, Plate
-from .dxf import add_part, etch_polylines, new_document, save
+from .dxf import add_part, bend_marks, new_document, save
 from .nest import transform_points
 
 log = logging.getLogger(__name__)
 
 
-def write_plate_dxf(plate: Plate, parts: dict[str, FlatPart], path: str | Path) -> Path:
-    """One plate as DXF: ``PLATE`` outline, ``ETCH`` first, then holes and outer contours."""
+def write_plate_dxf(
+    plate: Plate,
+    parts: dict[str, FlatPart],
+    path: str | Path,
+    marks: dict[str, tuple[str, np.ndarray]] | None = None,
+) -> Path:
+    """One plate as DXF: the ``PLATE`` outline (a layer never cut or plotted), then one INSERT
+    per part of a block per part mark (its etching, inner contours, outer contour: the mark's
+    first part, as in ``cut/parts``).
+
+    marks : part id -> (its mark's first part id, (3, 3) map from that part's flat frame to
+        this part's); without it, every part is its own block.
+    """
     doc = new_document()
+    doc.layers.get("PLATE").dxf.plot = 0
     msp = doc.modelspace()
     length, width = plate.size
     msp.add_lwpolyline(
@@ -38,14 +51,26 @@ def write_plate_dxf(plate: Plate, parts: dict[str, FlatPart], path: str | Path) 
         dxfattribs={"layer": "PLATE"},
     )
     for placement in plate.placements:
-        part = parts[placement.part_id]
-        for line in etch_polylines(part):
-            msp.add_lwpolyline(
-                transform_points(placement.transform, line).tolist(), dxfattribs={"layer": "ETCH"}
-            )
-    for placement in plate.placements:
-        add_part(msp, parts[placement.part_id], np.asarray(placement.transform), etch=False)
+        first_id, to_part = (marks or {}).get(placement.part_id, (placement.part_id, np.eye(3)))
+        first = parts[first_id]
+        name = first.mark or first.id
+        if name not in doc.blocks:
+            add_part(doc.blocks.new(name=name), first)
+        insert = np.asarray(placement.transform, dtype=float) @ to_part
+        angle = float(np.degrees(np.arctan2(insert[1, 0], insert[0, 0])))
+        msp.add_blockref(
+            name, (float(insert[0, 2]), float(insert[1, 2])), dxfattribs={"rotation": angle}
+        )
     return save(doc, path)
+
+
+def mark_frames(flat: FlatParts) -> dict[str, tuple[str, np.ndarray]]:
+    """Part id -> (its mark's first part id, the map from that part's flat frame to its own)."""
+    frames = {}
+    for group in flat.marks:
+        for part_id, transform in zip(group.part_ids, group.transforms):
+            frames[part_id] = (group.part_ids[0], np.asarray(transform, dtype=float))
+    return frames
 
 
 def _contour_path(contours: list[np.ndarray]) -> MplPath:
@@ -73,10 +98,11 @@ def write_plate_png(
             circle = np.stack([np.cos(angle), np.sin(angle)], 1) * hole.diameter / 2
             contours.append(transform_points(t, circle + hole.centre)[::-1])
         ax.add_patch(PathPatch(_contour_path(contours), fc="#9ecae1", ec="#08519c", lw=0.6))
-        if len(part.bend_lines):
+        marks = bend_marks(part)
+        if marks:
             ax.add_collection(
                 LineCollection(
-                    [transform_points(t, line) for line in part.bend_lines],
+                    [transform_points(t, line) for line in marks],
                     colors="#31a354",
                     linewidths=0.5,
                 )
@@ -102,10 +128,11 @@ def write_nests(nests: Nests, flat: FlatParts, folder: str | Path) -> dict[str, 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     parts = {p.id: p for p in flat.parts}
+    marks = mark_frames(flat)
     files = {}
     for plate in nests.plates:
         dxf_name, png_name = f"{plate.name}.dxf", f"{plate.name}.png"
-        write_plate_dxf(plate, parts, folder / dxf_name)
+        write_plate_dxf(plate, parts, folder / dxf_name, marks)
         write_plate_png(plate, parts, folder / png_name)
         files[plate.name] = [dxf_name, png_name]
     log.info("wrote %d plate files to %s", len(files), folder)

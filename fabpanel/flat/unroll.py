@@ -35,6 +35,11 @@ log = logging.getLogger(__name__)
 
 #: label cap height limits, mm (15-30 mm reads well on a shop floor)
 LABEL_HEIGHT = (4.0, 30.0)
+#: what a sheet's label says of the face up on the table: the one the drawing shows, towards the
+#: ribs, hidden in the finished shell (the only face etched)
+HIDDEN_FACE_UP = "RIB FACE UP"
+#: length of a bend tick at a sheet's edge, mm (``[cutting] bend_marks = "ticks"``)
+BEND_TICK = 50.0
 #: etched text keeps this clear of every hole and opening, mm (a cut edge would cross it)
 LABEL_CLEARANCE = 3.0
 
@@ -167,12 +172,21 @@ def unroll_sheet(part: Part) -> FlatPart:
     if part.surface_grid is None:
         raise GeometryError(f"sheet {part.id} has no surface_grid to unroll")
     grid = np.asarray(part.surface_grid, dtype=float)
-    uv, strain = flatten_grid(grid)
+    seen_from_outside, strain = flatten_grid(grid)
+    # the drawing shows the face towards the ribs, hidden in the finished shell and the only face
+    # etched: the flattening looks from outside, which is the bottom sheet's upper face and the
+    # top sheet's exterior, so a top sheet is drawn mirrored (as seen from below)
+    mirror = np.array([-1.0, 1.0]) if part.kind == "sheet-top" else np.ones(2)
+    uv = seen_from_outside * mirror
     outline = grid_outline(uv)
+    if polygon_area(outline) < 0:
+        outline = outline[::-1].copy()
     lengths_flat = polyline_lengths(grid_sides(uv))
     lengths_3d = polyline_lengths(grid_sides(grid))
     try:
-        bending = bending_of(grid, uv, outline)
+        # classified as seen from outside, so "OUT CONVEX" names the outer face either way
+        seen = bending_of(grid, seen_from_outside, grid_outline(seen_from_outside))
+        bending = dataclasses.replace(seen, lines=seen.lines * mirror)
     except (QhullError, ValueError, np.linalg.LinAlgError) as err:
         # a degenerate (sliver) sheet: no bend lines rather than no cutting files
         log.warning("%s: no bend lines (%s)", part.id, err)
@@ -195,6 +209,7 @@ def unroll_sheet(part: Part) -> FlatPart:
         bend_lines=bending.lines,  # cut round the labels once they are placed (labelled)
         max_strain=strain,
         forming=bending.instruction(),
+        face=HIDDEN_FACE_UP,
         edge_lengths_flat=lengths_flat,
         edge_lengths_3d=lengths_3d,
     )
@@ -228,11 +243,12 @@ def flat_plate(part: Part, face: str = "") -> FlatPart:
 
 def labelled(part: FlatPart, quantity: int) -> FlatPart:
     """The part with its etched labels: its mark; its id, or the quantity cut to the mark
-    (``24 OFF``); the forming instruction (sheets) or the way the drawn face looks (plates).
+    (``24 OFF``); the forming instruction and ``RIB FACE UP`` (sheets) or the way the drawn
+    face looks (plates).
     Bend lines stop short of the labels."""
     second = part.id if quantity == 1 else f"{quantity} OFF"
-    third = part.forming or part.face
-    lines = [part.mark or part.id, second] + ([third] if third else [])
+    more = [part.forming, part.face] if part.kind.startswith("sheet") else [part.face]
+    lines = [part.mark or part.id, second] + [line for line in more if line]
     obstacles = hole_areas(part, LABEL_CLEARANCE)
     if part.kind.startswith("sheet"):
         labels = place_labels(part.outline, lines, angle=0.0, obstacles=obstacles)
@@ -312,7 +328,7 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
         )
         for flat in flats
     ]
-    flats, marks = _marked(flats)
+    flats, marks = _marked(flats, BEND_TICK if job.cutting.bend_marks == "ticks" else 0.0)
     for part, flat in zip(model.parts, flats):
         if flat.max_strain > tolerance:
             issues.append(
@@ -360,14 +376,20 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
     return FlatParts(parts=tuple(parts), metrics=metrics, issues=tuple(issues), marks=marks)
 
 
-def _marked(flats: list[FlatPart]) -> tuple[list[FlatPart], tuple[MarkGroup, ...]]:
-    """The parts with their marks and labels, and the marks (:mod:`.marks`)."""
+def _marked(
+    flats: list[FlatPart], bend_tick: float = 0.0
+) -> tuple[list[FlatPart], tuple[MarkGroup, ...]]:
+    """The parts with their marks and labels, and the marks (:mod:`.marks`); bend lines to be
+    etched as ``bend_tick`` mm ticks (0: full lines)."""
     from .marks import mark_groups
 
     groups = mark_groups(flats)
     mark_of = {pid: group for group in groups for pid in group.part_ids}
     marked = [
-        labelled(dataclasses.replace(flat, mark=mark_of[flat.id].mark), mark_of[flat.id].quantity)
+        labelled(
+            dataclasses.replace(flat, mark=mark_of[flat.id].mark, bend_tick=bend_tick),
+            mark_of[flat.id].quantity,
+        )
         for flat in flats
     ]
     return marked, groups
