@@ -180,6 +180,11 @@ class AccessDesign:
         half = math.radians(self.tool.swing) / 2
         return self.reach * math.tan(half) + self.tool.handle_width / (2 * math.cos(half))
 
+    def at_reach(self, reach: float) -> AccessDesign:
+        """The same tool on a bolt ``reach`` mm from the access sheet's outer face (a rib
+        tilted against the sheet puts it farther than the job's straight-down reach)."""
+        return access_design(self.bolt, self.tool, self.t_rib, reach)
+
     def slot_size(self) -> tuple[float, float]:
         """(length along the rib, width across it), mm."""
         span = np.ptp(self.slot, axis=0)

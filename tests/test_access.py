@@ -119,8 +119,11 @@ def test_slots_unroll_with_their_size(model):
         sizes.append(sorted(np.linalg.norm(edges, axis=1)))
     single = [s for s in sizes if s[1] < length + 1.0]
     assert single, "every slot was merged"
-    # the 3D wall runs along the tool's way in, not the sheet normal: within 0.3 mm on R 4 m
-    np.testing.assert_allclose(np.array(single), [[width, length]] * len(single), atol=0.3)
+    # the 3D wall runs along the tool's way in, not the sheet normal: within 0.3 mm on R 4 m;
+    # the length follows each bolt's own reach to the sheet (76.5-78 mm here: the swing's span)
+    sizes = np.array(single)
+    np.testing.assert_allclose(sizes[:, 0], width, atol=0.3)
+    assert np.all(np.abs(sizes[:, 1] - length) < 1.5)
 
 
 def test_a_stiffener_over_the_corner_bolts_makes_them_unreachable_and_named(developed):

@@ -83,16 +83,25 @@ def opening_prism(outline: np.ndarray, frame: np.ndarray, reach: float, depth: f
 
 
 def blocked_bolts(
-    design: AccessDesign, frames: dict[int, np.ndarray], obstacles: dict[str, m3d.Manifold]
+    designs: dict[int, list[AccessDesign]],
+    frames: dict[int, np.ndarray],
+    obstacles: dict[str, m3d.Manifold],
 ) -> list[tuple[int, int, str, float]]:
     """The bolts whose tool path hits a part: ``(side, index, part id, common volume mm3)``,
-    the part it shares the most with. ``obstacles``: the panel's parts as solids, the access
+    the part it shares the most with; each bolt's tool from its own design (its reach). ``obstacles``: the panel's parts as solids, the access
     sheet with its openings taken out."""
     if not obstacles:
         return []
-    envelope = tool_envelope(design)
+    envelopes: dict[float, m3d.Manifold] = {}  # by reach, to 0.1 mm
+
+    def envelope(design: AccessDesign) -> m3d.Manifold:
+        key = round(design.reach, 1)
+        if key not in envelopes:
+            envelopes[key] = tool_envelope(design)
+        return envelopes[key]
+
     paths = {
-        (side, i): placed(envelope, frame)
+        (side, i): placed(envelope(designs[side][i]), frame)
         for side, stack in sorted(frames.items())
         for i, frame in enumerate(stack)
     }

@@ -34,16 +34,21 @@ class Opening:
     frame: np.ndarray
     outline: np.ndarray
     bolts: tuple[tuple[int, int], ...]
+    #: from the bolt to the access sheet's outer face along the frame's z, mm
+    reach: float
 
     @property
     def area(self) -> float:
         return abs(polygon_area(self.outline))
 
 
-def slot_openings(design: AccessDesign, frames: dict[int, np.ndarray]) -> list[Opening]:
-    """The openings for the bolts whose joint frames are ``frames`` (side -> (n, 4, 4))."""
+def slot_openings(
+    designs: dict[int, list[AccessDesign]], frames: dict[int, np.ndarray]
+) -> list[Opening]:
+    """The openings for the bolts whose joint frames are ``frames`` (side -> (n, 4, 4)), each
+    bolt's slot from its own design (its reach)."""
     openings = [
-        Opening(frame, design.slot, ((side, i),))
+        Opening(frame, designs[side][i].slot, ((side, i),), designs[side][i].reach)
         for side, stack in sorted(frames.items())
         for i, frame in enumerate(stack)
     ]
@@ -52,7 +57,7 @@ def slot_openings(design: AccessDesign, frames: dict[int, np.ndarray]) -> list[O
         merged = False
         for a in range(len(openings)):
             for b in range(a + 1, len(openings)):
-                joined = _joined(openings[a], openings[b], design.reach)
+                joined = _joined(openings[a], openings[b])
                 if joined is not None:
                     openings[a] = joined
                     del openings[b]
@@ -72,12 +77,12 @@ def _in_frame(opening: Opening, frame: np.ndarray, level: float) -> np.ndarray:
     return (world @ np.linalg.inv(frame).T)[:, :2]
 
 
-def _joined(first: Opening, second: Opening, level: float) -> Opening | None:
+def _joined(first: Opening, second: Opening) -> Opening | None:
     """Both openings as one in ``first``'s frame when they come within ``MIN_WEB``."""
     if np.linalg.norm(first.frame[:3, 3] - second.frame[:3, 3]) > 4 * np.ptp(first.outline).max():
         return None
     mine = Polygon(first.outline)
-    theirs = Polygon(_in_frame(second, first.frame, level))
+    theirs = Polygon(_in_frame(second, first.frame, second.reach))
     if mine.distance(theirs) >= MIN_WEB:
         return None
     union = shapely.union(mine, theirs).buffer(SLOT_CORNER).buffer(-SLOT_CORNER)
@@ -86,14 +91,16 @@ def _joined(first: Opening, second: Opening, level: float) -> Opening | None:
     ring = np.asarray(union.exterior.coords)[:-1]
     if polygon_area(ring) < 0:
         ring = ring[::-1]
-    return Opening(first.frame, resample_closed(ring, OUTLINE_STEP), first.bolts + second.bolts)
+    return Opening(
+        first.frame, resample_closed(ring, OUTLINE_STEP), first.bolts + second.bolts, first.reach
+    )
 
 
-def opening_loops(surface, openings: list[Opening], level: float) -> list[np.ndarray | str]:
+def opening_loops(surface, openings: list[Opening]) -> list[np.ndarray | str]:
     """Where each opening's wall (its outline moved along the frame's z) meets a surface, as a
     closed loop of surface parameters, or why there is none (2D Newton per point:
     the surface point whose (x, y) in the frame is the outline point; it fails where the
-    surface curves strongly under the opening). ``level``: z near the surface, to start from."""
+    surface curves strongly under the opening); each starts at its reach along z."""
     if not openings:
         return []
     counts = [len(o.outline) for o in openings]
@@ -101,7 +108,7 @@ def opening_loops(surface, openings: list[Opening], level: float) -> list[np.nda
     goal = np.concatenate([o.outline for o in openings])
     e1, e2, origin = frames[:, :3, 0], frames[:, :3, 1], frames[:, :3, 3]
     # Newton from the projection of each opening's centre (one projection per opening)
-    centres = np.array([o.frame[:3, 3] + level * o.frame[:3, 2] for o in openings])
+    centres = np.array([o.frame[:3, 3] + o.reach * o.frame[:3, 2] for o in openings])
     uv = np.repeat(occ.project_to_surface(surface, centres), counts, axis=0)
     f = np.full_like(goal, np.inf)
     for _ in range(30):
@@ -134,3 +141,21 @@ def opening_loops(surface, openings: list[Opening], level: float) -> list[np.nda
         else:
             loops.append("its outline on the sheet was not found (the sheet curves too much there)")
     return loops
+
+
+def reaches_along_z(surface, frames: dict[int, np.ndarray], guess: float) -> dict[int, np.ndarray]:
+    """Side -> (n,) float: how far each bolt's frame z runs to ``surface`` (the access sheet's
+    outer face), mm; ``guess`` where it was not found."""
+    out = {}
+    for side, stack in frames.items():
+        points = [Opening(f, np.zeros((1, 2)), (), guess) for f in stack]
+        found = opening_loops(surface, points) if points else []
+        reach = []
+        for frame, uv in zip(stack, found, strict=True):
+            if isinstance(uv, str):
+                reach.append(guess)
+                continue
+            point = occ.surface_points(surface, uv[:, 0], uv[:, 1])[0]
+            reach.append(float((point - frame[:3, 3]) @ frame[:3, 2]))
+        out[side] = np.array(reach)
+    return out

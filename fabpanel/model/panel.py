@@ -36,7 +36,7 @@ from ..geom.polygon import polygon_area
 from . import joints, occ
 from .access import REACH_OVERLAP, blocked_bolts, opening_prism
 from .clash import part_solid
-from .openings import Opening, opening_loops, slot_openings
+from .openings import Opening, opening_loops, reaches_along_z, slot_openings
 from .trim import TrimmedFace, side_rows, trimmed_face
 
 #: points along each rib edge curve (top and bottom), corner to corner
@@ -141,6 +141,11 @@ def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict
     design: AccessDesign | None = payload["access"] if sandwich else None
     access = payload["bolt"]["access_sheet"] if design is not None else "none"
     frames = _joint_frames(samples, normals, planes, bolts, access)
+    designs: dict[int, list[AccessDesign]] = {}
+    if design is not None and frames:
+        outside = faces["top_outer"] if access == "top" else faces["bottom_lower"]
+        reaches = reaches_along_z(outside.surface, frames, design.reach)
+        designs = {side: [design.at_reach(r) for r in reach] for side, reach in reaches.items()}
     building(f"{pid}-TOP")
     parts = [
         _sheet(
@@ -152,7 +157,7 @@ def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict
             payload["fibre"],
             k,
             frames if access == "top" else {},
-            design,
+            designs,
         )
     ]
     if sandwich:
@@ -167,7 +172,7 @@ def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict
                 payload["fibre"],
                 k,
                 frames if access == "bottom" else {},
-                design,
+                designs,
             )
         )
         ribs, stiffeners = [], []
@@ -254,7 +259,7 @@ def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict
         building(pid)
         findings += _clearance_findings(pid, parts, bolts, payload)
         if design is not None:
-            reach_findings, blocked = _reach_findings(pid, parts, frames, design)
+            reach_findings, blocked = _reach_findings(pid, parts, frames, designs)
             findings += reach_findings
             measures["bolts_in_the_way"] = blocked
     findings += [
@@ -320,7 +325,7 @@ def _sheet(
     fibre: str,
     k: int,
     frames: dict[int, np.ndarray],
-    design: AccessDesign | None,
+    designs: dict[int, list[AccessDesign]],
 ) -> dict:
     """A sheet solid between two trimmed faces (``outer``: away from the ribs for the top
     sheet, the face on the ribs for the bottom sheet), with the access slots of the bolts whose
@@ -339,10 +344,10 @@ def _sheet(
     mid_area = _grid_area((grid_a + grid_b) / 2)
     kept: list[tuple[Opening, np.ndarray, np.ndarray]] = []
     dropped: list[str] = []
-    if design is not None and frames:
-        openings = slot_openings(design, frames)
-        loops_a = opening_loops(outer.surface, openings, design.reach)
-        loops_b = opening_loops(inner.surface, openings, design.reach)
+    if designs and frames:
+        openings = slot_openings(designs, frames)
+        loops_a = opening_loops(outer.surface, openings)
+        loops_b = opening_loops(inner.surface, openings)
         for opening, a, b in zip(openings, loops_a, loops_b, strict=True):
             if isinstance(a, str) or isinstance(b, str):
                 why = a if isinstance(a, str) else b
@@ -704,7 +709,10 @@ def _clearance_findings(
 
 
 def _reach_findings(
-    pid: str, parts: list[dict], frames: dict[int, np.ndarray], design: AccessDesign
+    pid: str,
+    parts: list[dict],
+    frames: dict[int, np.ndarray],
+    designs: dict[int, list[AccessDesign]],
 ) -> tuple[list[Finding], list[tuple[int, int, str, bool]]]:
     """Openings that run under a rib or a stiffener (``access-clash``, a warning as before: the
     plate loses some of its seat on the sheet), and bolts the tool
@@ -716,7 +724,7 @@ def _reach_findings(
     openings: list[Opening] = sheet["openings"] if sheet else []
     cut = {bolt for o in openings for bolt in o.bolts}
     prisms = [
-        (o, opening_prism(o.outline, o.frame, design.reach, sheet["thickness"] if sheet else 0.0))
+        (o, opening_prism(o.outline, o.frame, o.reach, sheet["thickness"] if sheet else 0.0))
         for o in openings
     ]
     findings: list[Finding] = []
@@ -754,7 +762,8 @@ def _reach_findings(
                         "error",
                     )
                 )
-    for side, i, part_id, shared in blocked_bolts(design, frames, solids):
+    for side, i, part_id, shared in blocked_bolts(designs, frames, solids):
+        design = designs[side][i]
         if (side, i) not in cut:
             continue
         in_the_way.append((side, i, part_id, True))
