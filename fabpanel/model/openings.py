@@ -16,6 +16,7 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon
 
+from ..errors import KernelError
 from ..fasteners import SLOT_CORNER, AccessDesign
 from ..geom.polygon import polygon_area, resample_closed
 from . import occ
@@ -149,7 +150,10 @@ def reaches_along_z(surface, frames: dict[int, np.ndarray], guess: float) -> dic
     out = {}
     for side, stack in frames.items():
         points = [Opening(f, np.zeros((1, 2)), (), guess) for f in stack]
-        found = opening_loops(surface, points) if points else []
+        try:
+            found = opening_loops(surface, points) if points else []
+        except KernelError:  # a degenerate panel: its sheet build will say what is wrong
+            found = ["not found"] * len(points)
         reach = []
         for frame, uv in zip(stack, found, strict=True):
             if isinstance(uv, str):
