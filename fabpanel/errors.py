@@ -59,6 +59,9 @@ class Stopped(KeyboardInterrupt):
 
 
 Severity = Literal["info", "warning", "error"]
+#: what a worker found, as plain data: ``(code, item, message)`` or, with a severity other than
+#: the default, ``(code, item, message, severity)`` (the arguments of an :class:`Issue`)
+Finding = tuple[str, str, str] | tuple[str, str, str, str]
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,6 @@
 """The tool's swept envelope and the slot's prism as manifold3d solids, in the joint frame of
-:mod:`fabpanel.fasteners` (where the sizes and the path are defined), and the reach check."""
+:mod:`fabpanel.fasteners` (where the sizes and the path are defined), and the reach check of a
+built panel (:func:`reach_findings`)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,10 @@ import itertools
 import manifold3d as m3d
 import numpy as np
 
+from ..errors import Finding
 from ..fasteners import AccessDesign
+from .clash import part_solid
+from .openings import Opening
 
 #: the tool's path starts this far outside the access sheet's outer face, mm
 OUTSIDE = 30.0
@@ -117,3 +121,88 @@ def blocked_bolts(
         worst = max(shared, key=lambda pid: shared[pid])
         blocked.append((side, i, worst, shared[worst]))
     return blocked
+
+
+def bolt_names(sheet: str, bolts: tuple[tuple[int, int], ...]) -> str:
+    """``P012-RIB-1 bolt 2 and P012-RIB-2 bolt 0`` for an opening's bolts (numbered from 0)."""
+    panel = sheet.rsplit("-", 1)[0] if sheet.count("-") else sheet
+    names = [f"{panel}-RIB-{side} bolt {i}" for side, i in bolts]
+    if len(names) > 3:
+        return f"{', '.join(names[:2])} and {len(names) - 2} more bolts"
+    return " and ".join(names)
+
+
+def reach_findings(
+    pid: str,
+    parts: list[dict],
+    frames: dict[int, np.ndarray],
+    designs: dict[int, list[AccessDesign]],
+) -> tuple[list[Finding], list[tuple[int, int, str, bool]]]:
+    """Openings that run under a rib or a stiffener (``access-clash``, a warning as before: the
+    plate loses some of its seat on the sheet), and bolts the tool
+    cannot reach (``bolt-unreachable``, error): no slot was cut for them, or the tool's path
+    hits a part of the panel (:func:`fabpanel.model.access.blocked_bolts`). Also the bolts in
+    the way: ``(side, index, part id in the way or "", unreachable)``, for the build to move."""
+    in_the_way: list[tuple[int, int, str, bool]] = []
+    sheet = next((p for p in parts if p["kind"].startswith("sheet") and p["openings"]), None)
+    openings: list[Opening] = sheet["openings"] if sheet else []
+    cut = {bolt for o in openings for bolt in o.bolts}
+    prisms = [
+        (o, opening_prism(o.outline, o.frame, o.reach, sheet["thickness"] if sheet else 0.0))
+        for o in openings
+    ]
+    findings: list[Finding] = []
+    solids = {}
+    for part in parts:
+        solid = part_solid(part["clash_shape"], part["id"])
+        if part is sheet:
+            for _, prism in prisms:
+                solid = solid - prism
+        elif not part["kind"].startswith("sheet"):
+            for opening, prism in prisms:
+                shared = float((solid ^ prism).volume())
+                if shared > REACH_OVERLAP:
+                    in_the_way += [(b[0], b[1], part["id"], False) for b in opening.bolts]
+                    findings.append(
+                        (
+                            "access-clash",
+                            sheet["id"] if sheet else pid,
+                            (
+                                f"the access slot of {bolt_names(pid, opening.bolts)} runs "
+                                f"under {part['id']} ({shared:.0f} mm3)"
+                            ),
+                        )
+                    )
+        solids[part["id"]] = solid
+    for side, stack in frames.items():
+        for i in range(len(stack)):
+            if (side, i) not in cut:
+                in_the_way.append((side, i, "", True))
+                findings.append(
+                    (
+                        "bolt-unreachable",
+                        f"{pid}-RIB-{side}",
+                        f"{pid}-RIB-{side} bolt {i}: no access slot could be cut for it",
+                        "error",
+                    )
+                )
+    for side, i, part_id, shared in blocked_bolts(designs, frames, solids):
+        design = designs[side][i]
+        if (side, i) not in cut:
+            continue
+        in_the_way.append((side, i, part_id, True))
+        centre = np.round(frames[side][i][:3, 3], 1).tolist()
+        findings.append(
+            (
+                "bolt-unreachable",
+                f"{pid}-RIB-{side}",
+                (
+                    f"{pid}-RIB-{side} bolt {i}: the {design.tool.describe()} hits {part_id} "
+                    f"({shared:.0f} mm3) on its way to the {design.bolt.name} at {centre}; "
+                    "move the bolts (edge_distance, spacing), the stiffeners "
+                    "(stiffener_offset) or choose another tool"
+                ),
+                "error",
+            )
+        )
+    return findings, in_the_way

@@ -2,7 +2,7 @@
 
 Both panels of a joint must drill the same bolt positions, so stations are decided in the main
 process with both panels in view. After a build, every bolt a panel reports in the way (its
-tool's path or its slot meets a part, :func:`fabpanel.model.panel._reach_findings`) that is the
+tool's path or its slot meets a part, :func:`fabpanel.model.access.reach_findings`) that is the
 first or last of its joint moves along the joint by ``MOVE_STEP``:
 
 - towards the corner when a stiffener is in the way: the slot goes deeper into the stiffener's

@@ -30,12 +30,11 @@ from typing import Any
 import numpy as np
 
 from ..data import Hole
-from ..errors import KernelError
+from ..errors import Finding, KernelError
 from ..fasteners import AccessDesign
 from ..geom.polygon import polygon_area
 from . import joints, occ
-from .access import REACH_OVERLAP, blocked_bolts, opening_prism
-from .clash import part_solid
+from .access import bolt_names, reach_findings
 from .openings import Opening, opening_loops, reaches_along_z, slot_openings
 from .trim import TrimmedFace, side_rows, trimmed_face
 
@@ -64,10 +63,6 @@ MAX_STIFFENED_ANGLE = 150.0
 #: points per access opening outline (a periodic cubic through 24 points is within 1e-4 mm of
 #: a 40 mm circle)
 HOLE_POINTS = 24
-
-#: what a panel build found: ``(code, part id, message)`` or, with a severity other than the
-#: default, ``(code, part id, message, severity)`` (the arguments of an ``Issue``)
-Finding = tuple[str, str, str] | tuple[str, str, str, str]
 
 
 def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict[str, Any]:
@@ -259,8 +254,8 @@ def build_panel(payload: dict[str, Any], where: list[str] | None = None) -> dict
         building(pid)
         findings += _clearance_findings(pid, parts, bolts, payload)
         if design is not None:
-            reach_findings, blocked = _reach_findings(pid, parts, frames, designs)
-            findings += reach_findings
+            found, blocked = reach_findings(pid, parts, frames, designs)
+            findings += found
             measures["bolts_in_the_way"] = blocked
     findings += [
         ("access-clash", part["id"], message)
@@ -351,7 +346,7 @@ def _sheet(
         for opening, a, b in zip(openings, loops_a, loops_b, strict=True):
             if isinstance(a, str) or isinstance(b, str):
                 why = a if isinstance(a, str) else b
-                dropped.append(f"access slot of {_bolt_names(name, opening.bolts)} left out: {why}")
+                dropped.append(f"access slot of {bolt_names(name, opening.bolts)} left out: {why}")
             else:
                 kept.append((opening, a, b))
     try:
@@ -380,15 +375,6 @@ def _sheet(
         "valid": occ.is_valid(solid),
         "clash_shape": ("slab", grid_a, grid_b),
     }
-
-
-def _bolt_names(sheet: str, bolts: tuple[tuple[int, int], ...]) -> str:
-    """``P012-RIB-1 bolt 2 and P012-RIB-2 bolt 0`` for an opening's bolts (numbered from 0)."""
-    panel = sheet.rsplit("-", 1)[0] if sheet.count("-") else sheet
-    names = [f"{panel}-RIB-{side} bolt {i}" for side, i in bolts]
-    if len(names) > 3:
-        return f"{', '.join(names[:2])} and {len(names) - 2} more bolts"
-    return " and ".join(names)
 
 
 def _grid_area(grid: np.ndarray) -> float:
@@ -706,79 +692,3 @@ def _clearance_findings(
                     )
                 )
     return findings
-
-
-def _reach_findings(
-    pid: str,
-    parts: list[dict],
-    frames: dict[int, np.ndarray],
-    designs: dict[int, list[AccessDesign]],
-) -> tuple[list[Finding], list[tuple[int, int, str, bool]]]:
-    """Openings that run under a rib or a stiffener (``access-clash``, a warning as before: the
-    plate loses some of its seat on the sheet), and bolts the tool
-    cannot reach (``bolt-unreachable``, error): no slot was cut for them, or the tool's path
-    hits a part of the panel (:func:`fabpanel.model.access.blocked_bolts`). Also the bolts in
-    the way: ``(side, index, part id in the way or "", unreachable)``, for the build to move."""
-    in_the_way: list[tuple[int, int, str, bool]] = []
-    sheet = next((p for p in parts if p["kind"].startswith("sheet") and p["openings"]), None)
-    openings: list[Opening] = sheet["openings"] if sheet else []
-    cut = {bolt for o in openings for bolt in o.bolts}
-    prisms = [
-        (o, opening_prism(o.outline, o.frame, o.reach, sheet["thickness"] if sheet else 0.0))
-        for o in openings
-    ]
-    findings: list[Finding] = []
-    solids = {}
-    for part in parts:
-        solid = part_solid(part["clash_shape"], part["id"])
-        if part is sheet:
-            for _, prism in prisms:
-                solid = solid - prism
-        elif not part["kind"].startswith("sheet"):
-            for opening, prism in prisms:
-                shared = float((solid ^ prism).volume())
-                if shared > REACH_OVERLAP:
-                    in_the_way += [(b[0], b[1], part["id"], False) for b in opening.bolts]
-                    findings.append(
-                        (
-                            "access-clash",
-                            sheet["id"] if sheet else pid,
-                            (
-                                f"the access slot of {_bolt_names(pid, opening.bolts)} runs "
-                                f"under {part['id']} ({shared:.0f} mm3)"
-                            ),
-                        )
-                    )
-        solids[part["id"]] = solid
-    for side, stack in frames.items():
-        for i in range(len(stack)):
-            if (side, i) not in cut:
-                in_the_way.append((side, i, "", True))
-                findings.append(
-                    (
-                        "bolt-unreachable",
-                        f"{pid}-RIB-{side}",
-                        f"{pid}-RIB-{side} bolt {i}: no access slot could be cut for it",
-                        "error",
-                    )
-                )
-    for side, i, part_id, shared in blocked_bolts(designs, frames, solids):
-        design = designs[side][i]
-        if (side, i) not in cut:
-            continue
-        in_the_way.append((side, i, part_id, True))
-        centre = np.round(frames[side][i][:3, 3], 1).tolist()
-        findings.append(
-            (
-                "bolt-unreachable",
-                f"{pid}-RIB-{side}",
-                (
-                    f"{pid}-RIB-{side} bolt {i}: the {design.tool.describe()} hits {part_id} "
-                    f"({shared:.0f} mm3) on its way to the {design.bolt.name} at {centre}; "
-                    "move the bolts (edge_distance, spacing), the stiffeners "
-                    "(stiffener_offset) or choose another tool"
-                ),
-                "error",
-            )
-        )
-    return findings, in_the_way
