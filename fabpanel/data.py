@@ -23,7 +23,7 @@ import numpy as np
 
 from .errors import Issue
 
-PartKind = Literal["sheet-top", "sheet-bottom", "rib", "stiffener"]
+PartKind = Literal["sheet-top", "sheet-bottom", "rib", "stiffener", "packing"]
 PanelClass = Literal["planar", "single-curved", "conical", "not-developable"]
 
 

@@ -32,6 +32,7 @@ from pydantic import (
     model_validator,
 )
 
+from .buildup import MIN_SHEET_BEARING, default_setback, default_throat
 from .errors import InputError
 from .fasteners import (
     MIN_ENGAGEMENT,
@@ -77,6 +78,8 @@ MIN_EDGE_DISTANCE = 1.2
 #: shear) and across it in the rib's plane (its transverse shear): their spacing is p1 and p2 at
 #: once, so the larger minimum
 MIN_BOLT_SPACING = 2.4
+#: largest erection gap closed by packing plates at the bolts, mm (fabpanel's rule)
+MAX_ERECTION_GAP = 10.0
 #: holes larger than this many rib thicknesses are refused (fabpanel's rule): the rib's bearing
 #: resistance (EN 1993-1-8 Table 3.4, at most 2.5 fu d t; S235 fu = 360 MPa) is then under half
 #: the shear resistance of the bolt (grade 8.8, one shear plane, 0.6 fub As with As ~ 0.78 pi
@@ -339,6 +342,29 @@ class BoltSection(_Section):
     tool_swing: float = Field(default=30.0, ge=5.0, le=180.0)
     #: socket: from the nut's seat to the ratchet head (default 2 s, at least 30 mm)
     socket_length: PositiveLength | None = None
+    #: ``normal``: non-preloaded bolts in normal round holes (EN 1090-2 Table 11 clearance);
+    #: ``fitted``: fitted bolts, whose holes are always drilled (or reamed), never burnt
+    fit: Literal["normal", "fitted"] = "normal"
+
+
+class WeldSection(_Section):
+    """[sandwich.welds]: the sheet-to-rib welds and the fit-up details they need."""
+
+    _table = "sandwich.welds"
+
+    #: throat a of the fillet welds joining the sheets to the ribs (default: the largest
+    #: equal-leg fillet the thinner sheet's edge holds, t / sqrt 2, at most 3 mm)
+    throat: PositiveLength | None = None
+    #: how far sheet edges stand back from the rib's contact face at the joints, so the weld
+    #: stays off the face the neighbour's rib seats against (default: the weld leg a sqrt 2
+    #: plus 1 mm for fit-up, rounded up to 0.5 mm); boundary edges stay flush
+    setback: NonNegativeLength | None = None
+    #: leg of the 45-degree snipes cut off stiffener corners and the ends of the ribs that butt
+    #: against their neighbours, where three welds would meet ("0 mm": none)
+    snipe: NonNegativeLength = _default("15 mm")
+    #: clear gap between the ribs of neighbouring panels for erection tolerance, closed at each
+    #: bolt by a square packing plate of this thickness ("0 mm": the ribs touch)
+    erection_gap: NonNegativeLength = _default("0 mm")
 
 
 class SandwichSection(_Section):
@@ -362,6 +388,7 @@ class SandwichSection(_Section):
     stiffener_offset: PositiveLength = _default("150 mm")
     stiffener_thickness: PositiveLength | None = None
     bolts: BoltSection = BoltSection()
+    welds: WeldSection = WeldSection()
 
     @property
     def bottom_thickness(self) -> float:
@@ -501,6 +528,60 @@ class SandwichSection(_Section):
                     "(typically about the rib height)"
                 ),
             )
+        self._check_welds(w)
+
+    def _check_welds(self, w: _Written) -> None:
+        welds, t_rib = self.welds, self.rib_thickness
+        thinnest = min(self.sheet_thickness, self.bottom_thickness)
+        throat = welds.throat or default_throat(thinnest, t_rib)
+        leg = throat * math.sqrt(2.0)
+        if leg > thinnest + 1e-9:
+            raise w.conflict(
+                "welds.throat",
+                "sheet_thickness",
+                (
+                    f"an equal-leg fillet of throat a has a leg a sqrt 2 on the sheet's edge, which "
+                    f"is only {format_number(thinnest)} mm thick"
+                ),
+                f"use a throat of at most {math.floor(thinnest / math.sqrt(2.0) * 100) / 100:g} mm",
+            )
+        setback = welds.setback if welds.setback is not None else default_setback(throat)
+        if setback > t_rib - MIN_SHEET_BEARING:
+            # the default set-back follows the throat: blame the throat when it was not given
+            key = "welds.setback" if welds.setback is not None else "welds.throat"
+            raise w.conflict(
+                key,
+                "rib_thickness",
+                (
+                    f"a sheet set back {format_number(setback)} mm behind the rib's contact face "
+                    f"keeps less than {MIN_SHEET_BEARING:g} mm of the rib under it"
+                    + ("" if welds.setback is not None else " (the default set-back: leg + 1 mm)")
+                ),
+                (
+                    f"use a set-back of at most {format_number(t_rib - MIN_SHEET_BEARING)} mm, a "
+                    f"smaller weld throat or ribs of at least "
+                    f"{format_number(setback + MIN_SHEET_BEARING)} mm"
+                ),
+            )
+        if 0 < welds.snipe <= leg or welds.snipe > self.rib_height / 3:
+            raise w.conflict(
+                "welds.snipe",
+                "rib_height",
+                (
+                    f"a snipe clears the welds it meets (legs of {format_number(leg)} mm) and "
+                    "takes at most a third of the rib height"
+                ),
+                (
+                    f"use a snipe between {format_number(leg)} and "
+                    f"{format_number(self.rib_height / 3)} mm, or 0 mm for none"
+                ),
+            )
+        if welds.erection_gap > MAX_ERECTION_GAP:
+            raise _RuleError(
+                "welds.erection_gap",
+                f"{w('welds.erection_gap')} is more than {MAX_ERECTION_GAP:g} mm: a wider gap needs "
+                "a splice, not packing plates; use a smaller gap",
+            )
 
 
 class MaterialSection(_Section):
@@ -578,6 +659,14 @@ class CuttingSection(_Section):
     #: clean holes down to about 1-1.5 x the thickness. They go on the DRILL layer with an
     #: etched centre mark, and are not pierced
     min_plasma_hole: float = Field(default=1.0, ge=0.0, le=5.0)
+    #: ISO 9013 perpendicularity range the plasma holds (1 best .. 5): a cut face leans by up to
+    #: u = 0.05 + 0.003 t (range 1) .. 1.2 + 0.035 t mm (range 5) over the plate thickness t.
+    #: Conventional plasma holds about range 4, fine-beam plasma range 2-3
+    plasma_quality: int = Field(default=4, ge=1, le=5)
+    #: how far a bolt hole's diameter may deviate from the nominal; a bolt hole is plasma-cut
+    #: only when the plasma's u stays within it, else drilled (normal holes; fitted bolts are
+    #: always drilled)
+    hole_tolerance: PositiveLength = _default("0.5 mm")
     #: sheets are unrolled at this fibre of the plate
     neutral_fibre: Literal["mid", "outer", "inner"] = "mid"
     #: bend lines etched as short ticks at the sheet's edges (the roller lines them up), or as

@@ -144,7 +144,10 @@ def test_serialised_defaults_keep_their_units():
         "access_sheet": "bottom",
         "tool": "ring-spanner",
         "tool_swing": 30.0,
+        "fit": "normal",
     }
+    assert data["sandwich"]["welds"] == {"snipe": "15 mm", "erection_gap": "0 mm"}
+    assert data["cutting"]["hole_tolerance"] == "0.5 mm"
     assert data["material"]["E"] == "210000 MPa"
     assert data["material"]["density"] == "7.85e-06 kg/mm3"
     assert data["loads"]["snow"] == "0.00056 N/mm2"

@@ -6,7 +6,7 @@ import numpy as np
 from conftest import cylinder_developed
 
 from fabpanel.model import occ
-from fabpanel.model.panel import side_curve
+from fabpanel.model.trim import side_curve
 
 
 def test_interpolation_boundary_depends_on_boundary_row_only():

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from conftest import cylinder_developed
 
+from fabpanel.buildup import Buildup
 from fabpanel.errors import KernelError
 from fabpanel.geom.polygon import polygon_area
 from fabpanel.job import Job
@@ -17,11 +18,11 @@ from fabpanel.model import (
     write_panel_steps,
     write_step_assembly,
 )
-from fabpanel.model.build import buildup_offsets
 from fabpanel.model.clash import find_clashes, part_solid
 from fabpanel.model.joints import along_polyline
-from fabpanel.model.panel import clip_polyline
+from fabpanel.model.plates import clip_polyline
 from fabpanel.model.rhino import write_3dm
+from fabpanel.model.trim import side_rows
 
 R, LENGTH, ARC = 4000.0, 2400.0, np.pi / 3
 
@@ -103,18 +104,25 @@ def test_every_solid_valid(model):
 
 
 def test_sheet_volumes_are_cylindrical_shells_less_the_openings(model, job):
-    t = job.sandwich.sheet_thickness
+    """Each panel of the 2 x 2 grid has one interior side across the axis and one along it; the
+    sheets stand back from both by the weld set-back (a slice s thick across the axis, a strip
+    s wide along it: s t per unit length to within (s / R)^2)."""
+    t, s = job.sandwich.sheet_thickness, Buildup.of(job).welds.setback
+    assert s == 4.0  # 3 mm sheets: a 2.1 mm throat, a 3 mm leg, 1 mm fit-up
     angle, length = ARC / 2, LENGTH / 2
-    shell = angle / 2 * (R**2 - (R - t) ** 2) * length
+    shell = (angle / 2 * (R**2 - (R - t) ** 2) - s * t) * (length - s)
     top_in = R - t - job.sandwich.rib_height
-    bot = angle / 2 * (top_in**2 - (top_in - job.sandwich.bottom_thickness) ** 2) * length
+    b = job.sandwich.bottom_thickness
+    bot = (angle / 2 * (top_in**2 - (top_in - b) ** 2) - s * b) * (length - s)
     slot = job.sandwich.access_design().slot
     for part in model.parts:
         if part.kind == "sheet-top":
             assert part.holes == () and part.openings == ()
             np.testing.assert_allclose(part.volume, shell, rtol=1e-4)
             np.testing.assert_allclose(part.mass, part.volume * job.material.density)
-            np.testing.assert_allclose(part.area, angle * (R - t / 2) * length, rtol=1e-4)
+            np.testing.assert_allclose(
+                part.area, (angle * (R - t / 2) - s) * (length - s), rtol=1e-4
+            )
         if part.kind == "sheet-bottom":
             # every opening is one slot or two merged at a corner
             assert len(part.openings) > 0 and part.holes == ()
@@ -122,7 +130,7 @@ def test_sheet_volumes_are_cylindrical_shells_less_the_openings(model, job):
             np.testing.assert_allclose(part.volume, bot - part.opening_area * t, rtol=1e-4)
 
 
-def test_sheet_fit_and_mid_fibre_grid(model, job):
+def test_sheet_fit_and_mid_fibre_grid(model, developed, job):
     assert model.metrics["max_sheet_fit_error_mm"] < 0.01
     assert model.metrics["max_sheet_edge_mismatch_mm"] < 1e-6
     t = job.sandwich.sheet_thickness
@@ -130,13 +138,14 @@ def test_sheet_fit_and_mid_fibre_grid(model, job):
     grid = top.surface_grid
     assert grid.shape == (33, 33, 3)
     np.testing.assert_allclose(np.hypot(grid[..., 1], grid[..., 2]), R - t / 2, atol=0.01)
-    # side convention: corners of the developed grid, moved to the mid fibre
-    samples = model.developed.samples[0]
-    for (i, j), (a, b) in zip(
-        [(0, 0), (-1, 0), (-1, -1), (0, -1)], [(0, 0), (-1, 0), (-1, -1), (0, -1)]
-    ):
-        corner = samples[i, j] * np.array([1.0, (R - t / 2) / R, (R - t / 2) / R])
-        np.testing.assert_allclose(grid[a, b], corner, atol=1e-6)
+    # side convention: each boundary row of the grid lies in its side's rib plane, moved into
+    # the panel by the weld set-back where a neighbour's rib seats (boundary sides flush)
+    setback = Buildup.of(job).welds.setback
+    for side, row in enumerate(side_rows(grid)):
+        plane = developed.side_planes[0, side] / np.linalg.norm(developed.side_planes[0, side, :3])
+        interior = developed.layout.side_neighbours[0, side] >= 0
+        expected = setback if interior else 0.0
+        np.testing.assert_allclose(row @ plane[:3] - plane[3], expected, atol=1e-6)
 
 
 def test_ribs_planar_and_inside_their_plane(model, developed, job):
@@ -290,15 +299,15 @@ def test_cladding_gives_top_sheets_only(developed, job):
 
 def test_buildup_offsets(job):
     t, h, b = 3.0, 150.0, 3.0
-    assert buildup_offsets(job) == {
+    assert Buildup.of(job).offset_map == {
         "top_outer": 0.0,
         "top_inner": -t,
         "bottom_upper": -t - h,
         "bottom_lower": -t - h - b,
     }
-    low = buildup_offsets(job.replace(sandwich={"design_face": "bottom-outer"}))
+    low = Buildup.of(job.replace(sandwich={"design_face": "bottom-outer"})).offset_map
     assert low["bottom_lower"] == pytest.approx(0.0) and low["top_outer"] == t + h + b
-    mid = buildup_offsets(job.replace(sandwich={"design_face": "middle"}))
+    mid = Buildup.of(job.replace(sandwich={"design_face": "middle"})).offset_map
     assert mid["top_outer"] == pytest.approx(-mid["bottom_lower"])
 
 
@@ -349,7 +358,7 @@ def test_design_3dm_holds_exact_panel_surfaces_and_layers(model, developed, tmp_
     doc = rhino3dm.File3dm.Read(str(path))
     assert doc.Settings.ModelUnitSystem == rhino3dm.UnitSystem.Millimeters
     layers = [layer.Name for layer in doc.Layers]
-    assert layers == ["panels", "outlines", "ribs", "stiffeners", "labels"]
+    assert layers == ["panels", "outlines", "ribs", "stiffeners", "packing", "labels"]
     by_layer = {}
     for obj in doc.Objects:
         by_layer.setdefault(layers[obj.Attributes.LayerIndex], []).append(obj)

@@ -139,7 +139,7 @@ def test_a_layout_whose_every_panel_fails_still_stops(job):
 def _die_on_bad(payload, where=None):
     import os
 
-    if payload["panel_id"] == BAD:
+    if payload.panel_id == BAD:
         os._exit(3)  # a worker killed (out of memory, a segfault in OCCT)
     return _real_build_panel(payload, where)
 

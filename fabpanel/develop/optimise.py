@@ -51,6 +51,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import lsmr, spsolve
 
+from ..buildup import Buildup
 from ..data import PanelLayout
 from ..errors import SolverError
 from ..geom.fitting import bestfit_planes
@@ -640,7 +641,7 @@ def develop_global(layout: PanelLayout, surface, job, query: SurfaceQuery):
         closeness=settings.closeness,
         fairness=settings.fairness,
         rib=settings.rib_planarity,
-        depth=job.sandwich.total_depth,
+        depth=Buildup.of(job).total_depth,
     )
     report = optimiser.solve(settings.max_iterations, settings.tolerance)
     samples, own_normals, gauss_planes, _, cells = optimiser.result()

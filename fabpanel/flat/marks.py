@@ -27,7 +27,7 @@ from ..geom.polygon import polygon_area
 #: parts equal within this (mm) share a mark
 TOLERANCE = 0.1
 #: mark prefix per part kind
-PREFIX = {"sheet-top": "T", "sheet-bottom": "B", "rib": "R", "stiffener": "S"}
+PREFIX = {"sheet-top": "T", "sheet-bottom": "B", "rib": "R", "stiffener": "S", "packing": "K"}
 
 
 def mark_groups(parts: Sequence[FlatPart], tolerance: float = TOLERANCE) -> tuple[MarkGroup, ...]:

@@ -22,13 +22,14 @@ from scipy.spatial import QhullError
 from shapely.geometry import LineString, Point, Polygon
 from shapely.ops import polylabel
 
-from ..data import FlatPart, FlatParts, MarkGroup, Model, Part
+from ..data import FlatPart, FlatParts, Hole, MarkGroup, Model, Part
 from ..errors import GeometryError, Issue
 from ..geom.flatten import flatten_grid
 from ..geom.polygon import polygon_area
 from ..job import Job
 from ..parallel import worker_pool
 from .bending import Bending, bending_of
+from .holing import is_drilled
 from .strokefont import text_width
 
 log = logging.getLogger(__name__)
@@ -294,8 +295,8 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
     """Lay every part of the model flat (sheets unrolled in ``jobs`` worker processes).
 
     Sheets (``sheet-top``/``sheet-bottom``) are unrolled from their ``surface_grid``; ribs and
-    stiffeners keep their outline. Round holes smaller than ``[cutting] min_plasma_hole`` plate
-    thicknesses become drill holes. Issues: ``unroll-strain`` when a sheet's strain exceeds
+    stiffeners keep their outline. Round holes the plasma cannot hold become drill holes
+    (:mod:`fabpanel.flat.holing`). Issues: ``unroll-strain`` when a sheet's strain exceeds
     ``[develop] strain_tolerance``, ``invalid-outline`` for self-intersecting outlines.
     """
     tolerance = job.develop.strain_tolerance
@@ -315,16 +316,23 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
             )
     else:
         flats = [_lay_flat(part, face) for part, face in zip(light, plate_faces(light))]
-    smallest = job.cutting.min_plasma_hole
+    cutting = job.cutting
+
+    def drilled(hole: Hole, thickness: float) -> bool:
+        return is_drilled(
+            hole,
+            thickness,
+            min_plasma_hole=cutting.min_plasma_hole,
+            quality=cutting.plasma_quality,
+            tolerance=cutting.hole_tolerance,
+            fit=job.sandwich.bolts.fit,
+        )
+
     flats = [
         dataclasses.replace(
             flat,
-            round_holes=tuple(
-                h for h in flat.round_holes if h.diameter >= smallest * flat.thickness
-            ),
-            drill_holes=tuple(
-                h for h in flat.round_holes if h.diameter < smallest * flat.thickness
-            ),
+            round_holes=tuple(h for h in flat.round_holes if not drilled(h, flat.thickness)),
+            drill_holes=tuple(h for h in flat.round_holes if drilled(h, flat.thickness)),
         )
         for flat in flats
     ]

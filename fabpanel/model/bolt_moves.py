@@ -18,13 +18,13 @@ and are rebuilt, up to ``MOVE_ROUNDS`` rounds. What is still in the way stays re
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
+from ..buildup import Buildup
 from ..data import DevelopedPanels
 from ..fasteners import SHEET_BEFORE_RIB
 from .joints import bolt_stations
+from .records import PanelPayload, PanelResult
 from .trim import side_rows
 
 #: how far an end bolt moves per round, mm
@@ -45,34 +45,35 @@ def _facing_side(developed: DevelopedPanels, p: int, side: int, q: int) -> int:
     return int(candidates[int(np.argmin(gaps))])
 
 
-def _end_distances(payload: dict[str, Any], side: int, length: float) -> tuple[float, float]:
-    stations = payload.get("stations", {}).get(side)
+def _end_distances(payload: PanelPayload, side: int, length: float) -> tuple[float, float]:
+    stations = payload.stations_of(side)
     if stations is None:
-        edge = payload["bolt"]["edge_distance"]
-        stations = bolt_stations(length, payload["bolt"]["spacing"], edge)
+        bolts = payload.buildup.bolts
+        stations = bolt_stations(length, bolts.spacing, bolts.edge_distance)
     return float(stations[0]), float(length - stations[-1])
 
 
 def move_blocked_end_bolts(
     developed: DevelopedPanels,
-    payloads: list[dict[str, Any]],
-    results: list[dict[str, Any] | None],
-    settings: dict[str, Any],
+    payloads: list[PanelPayload],
+    results: list[PanelResult | None],
+    buildup: Buildup,
 ) -> set[int]:
     """Move the end bolts in the way (see the module docstring) in ``payloads``' stations;
     return the panels to rebuild (both panels of every joint changed)."""
-    design = settings["access"]
+    design = buildup.access
+    assert design is not None
     half = float(np.ptp(design.slot[:, 0])) / 2
-    lowest = half + settings["t_rib"] + SHEET_BEFORE_RIB + 1.0
-    beyond = settings["stiffener_offset"] + 2 * half + settings["t_stf"]
+    lowest = half + buildup.t_rib + SHEET_BEFORE_RIB + 1.0
+    beyond = buildup.stiffener_offset + 2 * half + buildup.t_stf
     neighbours = developed.layout.side_neighbours
     # per joint, seen from its lower panel: the end (0 start, 1 end) -> towards the corner
     wanted: dict[tuple[int, int], dict[int, bool]] = {}
     for p, result in enumerate(results):
-        if result is None or "failure" in result:
+        if result is None or result.failure is not None:
             continue
-        for side, i, part_id, _ in result["measures"].get("bolts_in_the_way", []):
-            count = len(result["bolts"].get(side, ()))
+        for side, i, part_id, _ in result.measures.get("bolts_in_the_way", []):
+            count = len(result.bolts.get(side, ()))
             q = int(neighbours[p, side])
             if count < 2 or i not in (0, count - 1) or q < 0:
                 continue
@@ -93,11 +94,12 @@ def move_blocked_end_bolts(
             else:
                 d += MOVE_STEP
             distances[end] = min(d, length / 2)
-        stations = bolt_stations(length, payloads[p]["bolt"]["spacing"], distances[0], distances[1])
+        spacing = buildup.bolts.spacing
+        stations = bolt_stations(length, spacing, distances[0], distances[1])
         q = int(neighbours[p, side])
         t = _facing_side(developed, p, side, q)
         other = _length(side_rows(developed.samples[q])[t])
-        payloads[p].setdefault("stations", {})[side] = stations
-        payloads[q].setdefault("stations", {})[t] = other - stations[::-1]
+        payloads[p] = payloads[p].with_stations(side, stations)
+        payloads[q] = payloads[q].with_stations(t, other - stations[::-1])
         moved |= {p, q}
     return moved

@@ -12,16 +12,7 @@ the joints and corners it shares. Only when no panel at all can be built does th
 A worker process that dies (``BrokenProcessPool``), Ctrl-C and ``MemoryError`` are not a bad
 panel and propagate.
 
-Build-up along the outward normal (offsets in mm, ``t``: top sheet, ``h``: rib height, ``b``:
-bottom sheet; ``design_face = "top-outer"``)::
-
-      0        top sheet outer face (design surface)
-     -t        top sheet inner face = rib top
-     -t-h      bottom sheet upper face = rib bottom
-     -t-h-b    bottom sheet lower face
-
-``"bottom-outer"`` adds ``t + h + b`` (the bottom sheet's lower face on the design surface),
-``"middle"`` half of it. ``"cladding"`` is the top sheet alone.
+The build-up (faces, thicknesses, welds, bolts) is :class:`fabpanel.buildup.Buildup`.
 
 Sandwich panels after the thesis (§6, §7.3.2); rib planes and bevels after Pottmann et al.,
 "Architectural Geometry" (2007), chapter on support structures.
@@ -40,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from ..buildup import Buildup
 from ..data import DevelopedPanels, Model, Part
 from ..errors import Issue, KernelError
 from ..job import Job
@@ -48,27 +40,9 @@ from ..tolerances import TOLERANCES
 from .bolt_moves import MOVE_ROUNDS, move_blocked_end_bolts
 from .clash import find_clashes, part_solid
 from .panel import build_panel
+from .records import Failure, PanelPayload, PanelResult
 
 log = logging.getLogger(__name__)
-
-
-# --------------------------------------------------------------------------------------------
-# build-up
-# --------------------------------------------------------------------------------------------
-def buildup_offsets(job: Job) -> dict[str, float]:
-    """Normal offsets (mm, outward positive) of the build-up's faces relative to the design face.
-
-    Keys: ``top_outer``, ``top_inner``, ``bottom_upper``, ``bottom_lower`` (the last two only for
-    ``buildup = "sandwich"``).
-    """
-    sw = job.sandwich
-    depth = sw.total_depth
-    shift = {"top-outer": 0.0, "bottom-outer": depth, "middle": depth / 2}[sw.design_face]
-    offsets = {"top_outer": shift, "top_inner": shift - sw.sheet_thickness}
-    if sw.buildup == "sandwich":
-        offsets["bottom_upper"] = offsets["top_inner"] - sw.rib_height
-        offsets["bottom_lower"] = offsets["bottom_upper"] - sw.bottom_thickness
-    return offsets
 
 
 # --------------------------------------------------------------------------------------------
@@ -94,70 +68,54 @@ def build(
     ``BrokenProcessPool`` (a worker died), ``MemoryError`` and ``KeyboardInterrupt`` through.
     """
     started = time.perf_counter()
-    sw = job.sandwich
-    bolts = sw.bolts
-    settings = {
-        "buildup": sw.buildup,
-        "offsets": buildup_offsets(job),
-        "t_top": float(sw.sheet_thickness),
-        "t_bot": float(sw.bottom_thickness),
-        "t_rib": float(sw.rib_thickness),
-        "t_stf": float(sw.stiffener_thickness or sw.rib_thickness),
-        "stiffener_offset": float(sw.stiffener_offset),
-        "slide_limit": TOLERANCES.trim_slide * sw.total_depth,
-        "fibre": job.cutting.neutral_fibre,
-        "bolt": {
-            "diameter": float(bolts.diameter),
-            "spacing": float(bolts.spacing),
-            "edge_distance": float(bolts.edge_distance),
-            "access_sheet": bolts.access_sheet,
-        },
-        "access": sw.access_design(),
-    }
+    buildup = Buildup.of(job)
     m = len(developed.panel_ids)
     neighbours = developed.layout.side_neighbours
     payloads = [
-        {
-            "panel_id": developed.panel_ids[p],
-            "samples": np.asarray(developed.samples[p], float),
-            "normals": np.asarray(developed.normals[p], float),
-            "planes": np.asarray(developed.side_planes[p], float),
-            "interior": neighbours[p] >= 0,
-            **settings,
-        }
+        PanelPayload(
+            panel_id=developed.panel_ids[p],
+            samples=np.asarray(developed.samples[p], float),
+            normals=np.asarray(developed.normals[p], float),
+            planes=np.asarray(developed.side_planes[p], float),
+            interior=neighbours[p] >= 0,
+            # one panel per joint supplies its packing plates: the one with the lower index
+            packs=neighbours[p] > p,
+            buildup=buildup,
+            slide_limit=TOLERANCES.trim_slide * buildup.total_depth,
+            fibre=job.cutting.neutral_fibre,
+        )
         for p in range(m)
     ]
     workers = max(1, min(jobs or os.cpu_count() or 1, m))
-    results: list[dict[str, Any] | None] = [None] * m
+    results: list[PanelResult | None] = [None] * m
     _run_payloads(payloads, list(range(m)), results, workers, developed, progress)
-    if settings["access"] is not None:
+    if buildup.access is not None:
         # end bolts the tool cannot reach are moved along their joint, both panels rebuilt
         for _ in range(MOVE_ROUNDS):
-            moved = move_blocked_end_bolts(developed, payloads, results, settings)
+            moved = move_blocked_end_bolts(developed, payloads, results, buildup)
             if not moved:
                 break
             _run_payloads(payloads, sorted(moved), results, workers, developed, None)
 
     # every panel was waited for: each result is a panel's parts or its failure
-    done = [r for r in results if r is not None and "failure" not in r]
-    failed = [r for r in results if r is not None and "failure" in r]
+    done = [r for r in results if r is not None and r.failure is None]
+    failed = [r for r in results if r is not None and r.failure is not None]
     for result in failed:
-        log.error("panel %s not built: %s", result["panel_id"], result["failure"]["reason"])
-        log.debug("panel %s: %s", result["panel_id"], result["failure"]["traceback"])
+        assert result.failure is not None
+        log.error("panel %s not built: %s", result.panel_id, result.failure.reason)
+        log.debug("panel %s: %s", result.panel_id, result.failure.traceback)
     if failed and not done:
         first = failed[0]
-        raise KernelError(
-            f"no panel could be built; {first['panel_id']}: {_failure_message(first)}"
-        )
+        raise KernelError(f"no panel could be built; {first.panel_id}: {_failure_message(first)}")
     material, density = job.material.name, float(job.material.density)
     parts: list[Part] = []
     for result in done:
-        for record in result["parts"]:
+        for record in result.parts:
             parts.append(
                 Part(
                     id=record["id"],
                     kind=record["kind"],
-                    panel_id=result["panel_id"],
+                    panel_id=result.panel_id,
                     material=material,
                     thickness=record["thickness"],
                     volume=record["volume"],
@@ -172,16 +130,18 @@ def build(
                     opening_area=float(record.get("opening_area", 0.0)),
                 )
             )
-    metrics, issues = _model_metrics(developed, parts, done, time.perf_counter() - started)
+    metrics, issues = _model_metrics(
+        developed, parts, done, time.perf_counter() - started, buildup.welds.erection_gap
+    )
     metrics["panels_built"] = len(done)
     metrics["panels_not_built"] = len(failed)
-    metrics["not_built"] = {r["panel_id"]: _failure_message(r) for r in failed}
+    metrics["not_built"] = {r.panel_id: _failure_message(r) for r in failed}
     issues = [
         Issue(
             "panel-not-built",
-            f"panel {r['panel_id']} not built: "
+            f"panel {r.panel_id} not built: "
             f"{_failure_message(r)}; its parts are missing from every output",
-            r["panel_id"],
+            r.panel_id,
             "error",
         )
         for r in failed
@@ -197,9 +157,9 @@ def build(
 
 
 def _run_payloads(
-    payloads: list[dict[str, Any]],
+    payloads: list[PanelPayload],
     indices: list[int],
-    results: list[dict[str, Any] | None],
+    results: list[PanelResult | None],
     workers: int,
     developed: DevelopedPanels,
     progress: Callable[[int], None] | None,
@@ -226,46 +186,45 @@ def _run_payloads(
                 progress(1)
 
 
-def _build_or_failure(payload: dict[str, Any]) -> dict[str, Any]:
-    """:func:`build_panel`, or when it raises a record ``{"panel_id", "failure"}`` naming the
-    part and the reason: plain data, so it crosses the process boundary whatever the exception
-    (OCCT's own exceptions do not always pickle). Runs in the worker processes."""
-    where = [payload["panel_id"]]
+def _build_or_failure(payload: PanelPayload) -> PanelResult:
+    """:func:`build_panel`, or when it raises a result whose ``failure`` names the part and the
+    reason: plain data, so it crosses the process boundary whatever the exception (OCCT's own
+    exceptions do not always pickle). Runs in the worker processes."""
+    where = [payload.panel_id]
     try:
         return build_panel(payload, where)
     except MemoryError:
         raise
     except Exception as err:  # noqa: BLE001 - any failure of one panel is that panel's issue
-        return _failure(payload["panel_id"], where[-1], err)
+        return _failure(payload.panel_id, where[-1], err)
 
 
-def _failure(panel_id: str, part: str, err: BaseException) -> dict[str, Any]:
+def _failure(panel_id: str, part: str, err: BaseException) -> PanelResult:
     reason = str(err).strip() or "no message"
     if not isinstance(err, KernelError):
         reason = f"{type(err).__name__}: {reason}"
-    return {
-        "panel_id": panel_id,
-        "failure": {
-            "part": part,
-            "reason": reason,
-            "traceback": "".join(traceback.format_exception(err)),
-        },
-    }
+    trace = "".join(traceback.format_exception(err))
+    return PanelResult(panel_id=panel_id, failure=Failure(part, reason, trace))
 
 
-def _failure_message(result: dict[str, Any]) -> str:
+def _failure_message(result: PanelResult) -> str:
     """``part P012-BOT: <reason>``: the part being built when the panel failed, and why."""
-    failure = result["failure"]
-    if failure["part"] == result["panel_id"]:
-        return failure["reason"]
-    return f"part {failure['part']}: {failure['reason']}"
+    failure = result.failure
+    assert failure is not None
+    if failure.part == result.panel_id:
+        return failure.reason
+    return f"part {failure.part}: {failure.reason}"
 
 
 # --------------------------------------------------------------------------------------------
 # metrics
 # --------------------------------------------------------------------------------------------
 def _model_metrics(
-    developed: DevelopedPanels, parts: list[Part], results: list[dict[str, Any]], seconds: float
+    developed: DevelopedPanels,
+    parts: list[Part],
+    results: list[PanelResult],
+    seconds: float,
+    erection_gap: float,
 ) -> tuple[dict[str, Any], list[Issue]]:
     """Measures and issues of the built panels (``results``: :func:`build_panel`'s records of
     the panels that were built; joints and corners with a panel not built are skipped)."""
@@ -277,7 +236,7 @@ def _model_metrics(
     per_panel: dict[str, Any] = {}
     fit, planarity, slide = [0.0], [0.0], [0.0]
     for result in results:
-        pid, meas = result["panel_id"], result["measures"]
+        pid, meas = result.panel_id, result.measures
         per_panel[pid] = _jsonable(meas)
         fit.append(meas["sheet_fit_error_mm"])
         slide.append(meas["sheet_trim_slide_mm"])
@@ -301,14 +260,15 @@ def _model_metrics(
                         part_id,
                     )
                 )
-        for code, part_id, message, *severity in result["findings"]:
-            issues.append(Issue(code, message, part_id, *severity))
+        for finding in result.findings:
+            code, part_id, message, *severity = finding
+            issues.append(Issue(code, message, part_id, *severity))  # type: ignore[arg-type]
         if not meas["valid"]:
             issues.append(
                 Issue("invalid-solid", "a solid of this panel is not valid in OCCT", pid, "error")
             )
-    built = {result["panel_id"] for result in results}
-    gap = _rib_contact_gap(developed, parts, built, issues)
+    built = {result.panel_id for result in results}
+    gap = _rib_contact_gap(developed, parts, built, issues, erection_gap)
     coaxial = _bolt_coaxiality(developed, results, issues)
     mismatch = _edge_mismatch(developed, results)
     clashes, clash_measures = _clash_check(developed, results)
@@ -330,14 +290,14 @@ def _model_metrics(
         "max_rib_contact_gap_mm": gap,
         "max_bolt_coaxial_error_mm": coaxial,
         "clash": clash_measures,
-        "all_valid": all(r["measures"]["valid"] for r in results),
+        "all_valid": all(r.measures["valid"] for r in results),
         "seconds": round(seconds, 2),
         "panels": per_panel,
     }
     return metrics, issues
 
 
-def _bolt_counts(results: list[dict[str, Any]]) -> dict[str, Any]:
+def _bolt_counts(results: list[PanelResult]) -> dict[str, Any]:
     """``bolts_total``: the bolts of the built panels' joints, each once (the two ribs' holes
     of a bolt are coaxial: centres within 1 mm are one bolt); ``bolts_unreachable``: those the
     tool cannot reach from one side or the other (None when the job has no access sheet: not
@@ -347,10 +307,10 @@ def _bolt_counts(results: list[dict[str, Any]]) -> dict[str, Any]:
 
     names, centres, flagged = [], [], []
     for result in results:
-        marked = {tuple(b) for b in result["measures"].get("bolts_unreachable", [])}
-        for side, stack in result["bolts"].items():
+        marked = {tuple(b) for b in result.measures.get("bolts_unreachable", [])}
+        for side, stack in result.bolts.items():
             for i, centre in enumerate(stack):
-                names.append(f"{result['panel_id']}-RIB-{side} bolt {i}")
+                names.append(f"{result.panel_id}-RIB-{side} bolt {i}")
                 centres.append(centre)
                 flagged.append((side, i) in marked)
     bolts = DisjointSet(range(len(names)))
@@ -359,7 +319,7 @@ def _bolt_counts(results: list[dict[str, Any]]) -> dict[str, Any]:
             bolts.merge(a, b)
     groups = bolts.subsets()
     blocked = [min(names[i] for i in g) for g in groups if any(flagged[i] for i in g)]
-    checked = bool(results) and all(r["measures"].get("bolts_checked") for r in results)
+    checked = bool(results) and all(r.measures.get("bolts_checked") for r in results)
     return {
         "bolts_total": len(groups),
         "bolts_unreachable": len(blocked) if checked else None,
@@ -383,11 +343,11 @@ def _joints(
 
 
 def _bolt_coaxiality(
-    developed: DevelopedPanels, results: list[dict[str, Any]], issues: list[Issue]
+    developed: DevelopedPanels, results: list[PanelResult], issues: list[Issue]
 ) -> float:
     """Largest distance between the hole centres of back-to-back ribs, mm (both in the shared
     plane; the axes are that plane's normal)."""
-    by_panel = {r["panel_id"]: r["bolts"] for r in results}
+    by_panel = {r.panel_id: r.bolts for r in results}
     ids = developed.panel_ids
     worst = 0.0
     for p, s, q, t in _joints(developed, set(by_panel)):
@@ -418,10 +378,10 @@ def _bolt_coaxiality(
     return worst
 
 
-def _edge_mismatch(developed: DevelopedPanels, results: list[dict[str, Any]]) -> float:
+def _edge_mismatch(developed: DevelopedPanels, results: list[PanelResult]) -> float:
     """Largest distance between a top sheet's outer edge and its neighbour's along their joint,
     mm (each point to the other's polyline)."""
-    edges = {r["panel_id"]: r["top_edges"] for r in results}
+    edges = {r.panel_id: r.top_edges for r in results}
     ids = developed.panel_ids
     worst = 0.0
     for p, s, q, t in _joints(developed, set(edges)):
@@ -444,15 +404,15 @@ def _polyline_distance(points: np.ndarray, line: np.ndarray) -> float:
 
 
 def _clash_check(
-    developed: DevelopedPanels, results: list[dict[str, Any]]
+    developed: DevelopedPanels, results: list[PanelResult]
 ) -> tuple[list[tuple[str, str, float]], dict[str, Any]]:
     """Clashes between the parts of each built panel and between built panels that share a
     corner (and so possibly a side); see :func:`fabpanel.model.clash.find_clashes`."""
     solids: dict[str, Any] = {}
     groups: dict[str, list[str]] = {}
     for result in results:
-        groups[result["panel_id"]] = [part["id"] for part in result["parts"]]
-        for part in result["parts"]:
+        groups[result.panel_id] = [part["id"] for part in result.parts]
+        for part in result.parts:
             solids[part["id"]] = part_solid(part["clash_shape"], part["id"])
     quads = developed.layout.quads
     ids = developed.panel_ids
@@ -474,10 +434,15 @@ def _clash_check(
 
 
 def _rib_contact_gap(
-    developed: DevelopedPanels, parts: list[Part], built: set[str], issues: list[Issue]
+    developed: DevelopedPanels,
+    parts: list[Part],
+    built: set[str],
+    issues: list[Issue],
+    erection_gap: float = 0.0,
 ) -> float:
-    """Largest distance between a rib's outer face corners and its back-to-back neighbour's
-    rib plane, mm (0 when there are no ribs; joints with a panel not built are skipped)."""
+    """Largest distance between a rib's outer face corners and where they belong: its
+    back-to-back neighbour's rib plane, or half the erection gap off it, mm (0 when there are
+    no ribs; joints with a panel not built are skipped)."""
     ribs = {p.id: p for p in parts if p.kind == "rib"}
     if not ribs:
         return 0.0
@@ -491,9 +456,8 @@ def _rib_contact_gap(
             plane = developed.side_planes[b, side_b]
             outline = np.asarray(rib.outline, dtype=float)
             world = np.c_[outline, np.zeros(len(outline)), np.ones(len(outline))] @ rib.frame.T
-            gap = float(
-                np.abs(world[:, :3] @ plane[:3] - plane[3]).max() / np.linalg.norm(plane[:3])
-            )
+            off = (world[:, :3] @ plane[:3] - plane[3]) / np.linalg.norm(plane[:3])
+            gap = float(np.abs(np.abs(off) - erection_gap / 2).max())
             worst = max(worst, gap)
             if gap > TOLERANCES.rib_contact_gap:
                 issues.append(

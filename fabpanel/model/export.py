@@ -24,12 +24,14 @@ from . import occ
 
 log = logging.getLogger(__name__)
 
-#: preview colours per part kind (RGB 0..1): sheets steel grey, ribs orange, stiffeners red
+#: preview colours per part kind (RGB 0..1): sheets steel grey, ribs orange, stiffeners red,
+#: packing plates blue
 KIND_COLOURS: dict[str, tuple[float, float, float]] = {
     "sheet-top": (0.72, 0.74, 0.78),
     "sheet-bottom": (0.55, 0.58, 0.62),
     "rib": (0.90, 0.55, 0.15),
     "stiffener": (0.80, 0.20, 0.15),
+    "packing": (0.30, 0.45, 0.80),
 }
 
 

@@ -35,6 +35,7 @@ LAYERS = {
     "outlines": (40, 40, 40, 255),
     "ribs": (230, 140, 38, 255),
     "stiffeners": (204, 51, 38, 255),
+    "packing": (77, 115, 204, 255),
     "labels": (20, 60, 160, 255),
 }
 
@@ -123,7 +124,7 @@ def write_3dm(model: Model, path: str | Path) -> Path:
             np.c_[part.outline, np.zeros(len(part.outline)), np.ones(len(part.outline))]
             @ part.frame.T
         )[:, :3]
-        layer_name = "ribs" if part.kind == "rib" else "stiffeners"
+        layer_name = {"rib": "ribs", "packing": "packing"}.get(part.kind, "stiffeners")
         doc.Objects.AddPolyline(points(np.r_[world, world[:1]]), attributes(layer_name, part.id))
     if not doc.Write(str(path), 8):
         raise KernelError(f"writing {path} failed")

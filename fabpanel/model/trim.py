@@ -232,3 +232,19 @@ def _corner(surface, corner: int, planes: np.ndarray, trim: np.ndarray, name: st
     raise _TrimFailed(
         f"{name}: corner {corner} could not be placed on its rib planes", tuple(active)
     )
+
+
+def side_curve(surface, side: int, n: int) -> np.ndarray:
+    """(n, 3) float: the boundary iso-curve of side ``side`` of a surface fitted to a panel grid,
+    from corner ``side`` to corner ``side + 1``."""
+    return occ.surface_points(surface, *_side_uv(side, n))
+
+
+def _side_uv(side: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    t = np.linspace(0.0, 1.0, n)
+    return {
+        0: (t, np.zeros(n)),
+        1: (np.ones(n), t),
+        2: (1 - t, np.ones(n)),
+        3: (np.zeros(n), 1 - t),
+    }[side]

@@ -256,16 +256,16 @@ class SandwichSettings:
 
 
 def sandwich_settings(job, divisions: int) -> SandwichSettings:
-    from ..model.build import buildup_offsets
+    from ..buildup import Buildup
 
-    sw, mat = job.sandwich, job.material
+    bu, mat = Buildup.of(job), job.material
     return SandwichSettings(
-        offsets=buildup_offsets(job),
-        t_top=float(sw.sheet_thickness),
-        t_bot=float(sw.bottom_thickness),
-        t_rib=float(sw.rib_thickness),
-        rib_height=float(sw.rib_height),
-        buildup=sw.buildup,
+        offsets=bu.offset_map,
+        t_top=bu.t_top,
+        t_bot=bu.t_bot,
+        t_rib=bu.t_rib,
+        rib_height=bu.rib_height,
+        buildup=bu.kind,
         material=Material(mat.name, float(mat.E), float(mat.nu), float(mat.density), float(mat.fy)),
         divisions=int(divisions),
     )
