@@ -242,3 +242,19 @@ def test_quarter_turns_only_and_parts_as_high_as_the_plate():
     tall = FlatParts(parts=(flat_part("P003-C", rectangle(1500, 969.0)),))
     result = nest(tall, JOB)
     assert validate_nests(result, tall, JOB) == []
+
+
+def test_long_parts_in_rows_leave_their_tail_to_the_small_ones():
+    """27 ribs 1190 x 150 and 18 blocks 180 x 140 fill one 4000 x 1500 plate exactly as rows of
+    three ribs (3600 mm) and two columns of blocks in the 380 mm left behind them (89 % of the
+    usable area); spyrrow's own pack of the ribs staggers them past 3.9 m and needs a second
+    plate."""
+    ribs = [flat_part(f"P{i:03d}-RIB-0", rectangle(1190.0, 150.0), 8.0) for i in range(27)]
+    blocks = [flat_part(f"P{i:03d}-STF-0", rectangle(180.0, 140.0), 8.0) for i in range(18)]
+    flat = FlatParts(parts=tuple(ribs + blocks))
+    job = Job.from_dict(
+        {"cutting": {"plate_length": "4000 mm", "plate_width": "1500 mm", "nest_time": "0 s"}}
+    )
+    nests = nest(flat, job)
+    assert len(nests.plates) == 1 and len(nests.plates[0].placements) == 45
+    assert validate_nests(nests, flat, job) == []

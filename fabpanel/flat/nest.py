@@ -56,6 +56,9 @@ SAFETY_GAP = 0.05
 CHECK_TOLERANCE = 0.01
 #: constructive packs per plate when adding small parts to it (binary search)
 FILL_PROBES = 6
+#: parts under this share of a plate's largest part's area are the small ones its free strip
+#: is filled with (:func:`_tail_fill`)
+SMALL_SHARE = 0.25
 #: expected share of a plate the grown shapes cover (splits the time budget over the plates)
 FILL_DENSITY = 0.85
 
@@ -305,6 +308,113 @@ def _fill(
     return best
 
 
+def _shortest_pack(
+    items: list[_Item], length: float, height: float, seed: int, rotate: bool
+) -> _Packing | None:
+    """The items on one plate, as spyrrow's constructive pack or as their bounding boxes
+    (rectpack), whichever ends sooner along the plate; None when neither fits one plate. Many
+    equal long parts (ribs) box-pack in clean rows where spyrrow's pack staggers them."""
+    packs = [_pack_on_plate(items, length, height, 0, seed), _rows(items, length, height)]
+    try:
+        boxes = _box_plates(items, length, height, rotate)
+    except SolverError:
+        boxes = []  # a box larger than the plate: rectpack leaves it out
+    if len(boxes) == 1:
+        packs.append(boxes[0])
+    fitting = [p for p in packs if p is not None]
+    if not fitting:
+        return None
+    return min(fitting, key=lambda p: float(_spans(p.items, p.transforms)[:, 1].max()))
+
+
+def _rows(items: list[_Item], length: float, height: float) -> _Packing | None:
+    """The items' bounding boxes (first allowed rotation) packed as far towards the plate's
+    start as they go, or None when they need more than one plate: rectpack's bottom-left
+    MaxRects on the plate turned a quarter, so its "lowest first" is "nearest the start"."""
+    packer = rectpack.newPacker(
+        mode=rectpack.PackingMode.Offline,
+        bin_algo=rectpack.PackingBin.BFF,
+        pack_algo=rectpack.MaxRectsBl,
+        rotation=False,
+    )
+    base = [rotation_matrix(it.rotations[0]) for it in items]
+    boxes = [np.ceil(np.ptp(it.shape @ r.T, axis=0) * 10).astype(int) for it, r in zip(items, base)]
+    for index, (w, h) in enumerate(boxes):
+        packer.add_rect(int(h), int(w), rid=index)
+    packer.add_bin(int(height * 10), int(length * 10), count=1)
+    packer.pack()
+    placed = [rect for plate_bin in packer for rect in plate_bin]
+    if len(placed) != len(items):
+        return None
+    members, transforms = [], []
+    for rect in sorted(placed, key=lambda r: r.rid):
+        item, rotation = items[rect.rid], base[rect.rid]
+        t = np.eye(3)
+        t[:2, :2] = rotation
+        t[:2, 2] = np.array([rect.y, rect.x]) / 10 - (item.shape @ rotation.T).min(axis=0)
+        members.append(item)
+        transforms.append(t)
+    return _Packing(members, transforms)
+
+
+def _tail_fill(
+    plate: _Packing,
+    waiting: list[_Item],
+    length: float,
+    height: float,
+    seed: int,
+    rotate: bool,
+) -> _Packing:
+    """The plate with the free strip past its large parts filled with small ones.
+
+    spyrrow repacks a whole plate from scratch, and its constructive pack of large parts and a
+    few small ones spreads over the plate's length (the demo's 1.25 m ribs, two to a 3 m plate,
+    left a 0.5 m strip holding 2 of the 150 mm stiffeners that fit there). So the large parts
+    (at least ``SMALL_SHARE`` of the largest one's area) are packed alone, and the strip from
+    their furthest grown edge to the plate's end is packed on its own with the plate's small
+    parts and as many of the smallest waiting ones as fit (a binary search, as :func:`_fill`),
+    moved behind the large ones (packed the shorter way: :func:`_shortest_pack`). Kept when it
+    holds more part area than ``plate``.
+    """
+
+    def area(item: _Item) -> float:
+        return abs(polygon_area(item.shape))
+
+    largest = max(area(it) for it in plate.items)
+    large = [it for it in plate.items if area(it) >= SMALL_SHARE * largest]
+    small = [it for it in plate.items if area(it) < SMALL_SHARE * largest]
+    base = _shortest_pack(large, length, height, seed, rotate) if small or waiting else None
+    if base is None:
+        return plate
+    used = float(_spans(base.items, base.transforms)[:, 1].max())
+    extras = small + sorted((it for it in waiting if area(it) < SMALL_SHARE * largest), key=area)
+    room = length - used
+    if room <= 0 or not extras:
+        return plate
+    areas = np.cumsum([area(it) for it in extras])
+    low, high = len(small), int(np.searchsorted(areas, room * height, side="right"))
+    tail = _shortest_pack(extras[:low], room, height, seed, rotate) if low else _Packing([], [])
+    for _ in range(FILL_PROBES):
+        if tail is None or low >= high:
+            break
+        middle = (low + high + 1) // 2
+        packed = _shortest_pack(extras[:middle], room, height, seed, rotate)
+        if packed is None:
+            high = middle - 1
+        else:
+            low, tail = middle, packed
+    if tail is None or not tail.items:
+        return plate
+    shift = np.eye(3)
+    shift[0, 2] = used
+    filled = _Packing(
+        base.items + tail.items, base.transforms + [shift @ t for t in tail.transforms]
+    )
+    if sum(area(it) for it in filled.items) <= sum(area(it) for it in plate.items):
+        return plate
+    return filled
+
+
 def _nest_group(
     items: list[_Item],
     job: Job,
@@ -328,7 +438,8 @@ def _nest_group(
     offset = np.eye(3)
     offset[:2, 2] = cutting.plate_margin - grow
     # a part that fits one way only cannot be turned by rectpack: its turned box does not fit
-    boxes = _box_plates(items, length, height, {r % 180 for r in cutting.rotations} == {0, 90})
+    turns = {r % 180 for r in cutting.rotations} == {0, 90}
+    boxes = _box_plates(items, length, height, turns)
     estimate = sum(abs(polygon_area(it.shape)) for it in items) / (FILL_DENSITY * length * height)
     # the budget in whole seconds per plate (spyrrow's unit), at least 1 s while any is left
     share = max(math.ceil(budget_s / max(math.ceil(estimate), 1)), 1)
@@ -350,6 +461,9 @@ def _nest_group(
         if len(plate.items) == len(members) and waiting:
             left = _round_seconds(deadline - time.perf_counter())
             plate = _fill(plate, waiting, length, height, min(share, left), seed + index)
+            inside = {id(it) for it in plate.items}
+            rest = [it for it in waiting if id(it) not in inside]
+            plate = _tail_fill(plate, rest, length, height, seed + index, turns)
         placed |= {id(it) for it in plate.items}
         plates.append([(it, offset @ t) for it, t in zip(plate.items, plate.transforms)])
         on_round(len(items) - len(placed))
