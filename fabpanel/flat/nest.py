@@ -14,14 +14,18 @@ spyrrow (sparrow: J. Gardeyn, T. Wauters, "An open-source heuristic for 2D irreg
    on both sides: a part may touch the usable area's edge with its true outline); it is kept when
    it fits one usable plate length, else the box layout stays. Then the smallest parts still
    waiting on later plates are moved onto this one while everything still packs (a binary search
-   over how many). Plates whose parts have all moved disappear, so the nest never needs more
-   plates than the boxes, and no part ever crosses a plate end.
+   over how many), and the strip past the plate's large parts (packed the shorter way: spyrrow,
+   their boxes in rows from the plate's start, or MaxRects) is packed on its own with small
+   parts (:func:`fabpanel.flat.packing.tail_fill`: the demo's 8 mm ribs and stiffeners went
+   from 18 to 17 plates of 4000 x 1500). Plates whose parts have all moved disappear, so the
+   nest never needs more plates than the boxes, and no part ever crosses a plate end.
 
 A part whose grown shape fits no plate in any allowed rotation becomes a ``part-too-large`` issue.
 Time budget: ``[cutting] nest_time`` per group, spread over the plates it is expected to need in
 whole seconds (spyrrow's unit; at least 1 s a plate, so a short budget serves the first plates);
-each plate spends its share on one more attempt to add a part with spyrrow's improvement phase. 0 s means constructive packs only, which are reproducible bit for
-bit (spyrrow's own seed is ``seed`` plus the plate's index).
+each plate spends its share on one more attempt to add a part with spyrrow's improvement
+phase. 0 s means constructive packs only, which are reproducible bit for bit (spyrrow's own seed
+is ``seed`` plus the plate's index).
 """
 
 from __future__ import annotations
@@ -32,426 +36,79 @@ import math
 import time
 from collections import Counter, defaultdict
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
-import rectpack
 import shapely
-import spyrrow
 from shapely.geometry import Polygon, box
 
 from ..data import FlatPart, FlatParts, Nests, Placement, Plate
-from ..errors import Issue, SolverError
+from ..errors import Issue
 from ..geom.polygon import polygon_area, polyline_length
 from ..job import Job, StockSection
 from .marks import TOLERANCE as MARK_TOLERANCE
+from .packing import (
+    SAFETY_GAP,
+    Item,
+    Packing,
+    box_plates,
+    fill_plate,
+    fitting_rotations,
+    pack_on_plate,
+    packing_shape,
+    round_seconds,
+    tail_fill,
+    transform_points,
+    validate_outline,
+)
 
 log = logging.getLogger(__name__)
 
-#: Douglas-Peucker tolerance for the packing shapes, mm (covered by growing them as much more)
-SIMPLIFY_TOLERANCE = 0.5
-#: extra gap on top of half the part spacing, absorbs spyrrow's single-precision geometry, mm
-SAFETY_GAP = 0.05
 #: geometric tolerance of the nest checks, mm
 CHECK_TOLERANCE = 0.01
-#: constructive packs per plate when adding small parts to it (binary search)
-FILL_PROBES = 6
-#: parts under this share of a plate's largest part's area are the small ones its free strip
-#: is filled with (:func:`_tail_fill`)
-SMALL_SHARE = 0.25
+
 #: expected share of a plate the grown shapes cover (splits the time budget over the plates)
 FILL_DENSITY = 0.85
 
 Progress = Callable[[float, str], None]
 
-_IDENTITY = np.eye(3)
 
-
-@dataclass(frozen=True)
-class _Item:
-    """A part prepared for packing: grown shape, allowed rotations.
-
-    Parts of one mark share their mark's shape (``key``: the mark), in the frame of the mark's
-    first part; ``to_shape`` (3, 3) maps the part's own flat frame to it, so that spyrrow packs
-    them as one item with a quantity."""
-
-    part: FlatPart
-    shape: np.ndarray  # (k, 2) float, counter-clockwise, not closed
-    rotations: tuple[int, ...]
-    key: str = ""
-    to_shape: np.ndarray = field(default_factory=lambda: np.eye(3))
-
-
-def rotation_matrix(degrees: float) -> np.ndarray:
-    """(2, 2) float; exact for multiples of 90 degrees."""
-    quarter = degrees / 90.0
-    if abs(quarter - round(quarter)) < 1e-6:
-        c, s = [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)][round(quarter) % 4]
-    else:
-        c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
-    return np.array([[c, -s], [s, c]], dtype=float)
-
-
-def transform_points(transform: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Apply a (3, 3) 2D transform to (n, 2) points."""
-    return np.asarray(points, dtype=float) @ transform[:2, :2].T + transform[:2, 2]
-
-
-def validate_outline(outline: np.ndarray, name: str) -> np.ndarray:
-    """(n, 2) float: a finite, simple, non-degenerate outline, counter-clockwise, not closed.
-
-    Raises ValueError naming the part when the outline cannot be nested.
-    """
-    points = np.asarray(outline, dtype=float)
-    if points.ndim != 2 or points.shape[1] != 2 or len(points) < 3:
-        raise ValueError(f"{name}: outline must be (n >= 3, 2), got {points.shape}")
-    if not np.all(np.isfinite(points)):
-        raise ValueError(f"{name}: outline has non-finite coordinates")
-    if np.allclose(points[0], points[-1]):
-        points = points[:-1]
-    area = polygon_area(points)
-    if abs(area) < 1e-6:
-        raise ValueError(f"{name}: outline has zero area")
-    if not shapely.is_valid(Polygon(points)):
-        raise ValueError(
-            f"{name}: outline is not simple ({shapely.is_valid_reason(Polygon(points))})"
-        )
-    return points if area > 0 else points[::-1].copy()
-
-
-def packing_shape(outline: np.ndarray, grow: float) -> np.ndarray:
-    """(k, 2) float: the outline grown by ``grow`` mm (mitre joins) and simplified, CCW.
-
-    The result holds every point within ``grow - SIMPLIFY_TOLERANCE`` of the outline.
-    """
-    grown = Polygon(outline).buffer(grow + SIMPLIFY_TOLERANCE, join_style="mitre", mitre_limit=4.0)
-    simple = grown.simplify(SIMPLIFY_TOLERANCE, preserve_topology=True)
-    simple = shapely.geometry.polygon.orient(Polygon(simple.exterior), 1.0)
-    return np.asarray(simple.exterior.coords)[:-1]
-
-
-def _fitting_rotations(
-    shape: np.ndarray, rotations: list[int], length: float, height: float
-) -> tuple[int, ...]:
-    size = shape.max(axis=0) - shape.min(axis=0)
-    fits = []
-    for r in rotations:
-        w, h = size if r % 180 == 0 else size[::-1]
-        # the same rounding as the box assignment (0.1 mm up, plate down), and strictly inside:
-        # spyrrow fails on a shape exactly as high as its strip
-        if (
-            np.ceil(w * 10) <= np.floor(length * 10)
-            and np.ceil(h * 10) <= np.floor(height * 10)
-            and w < length - 1e-3
-            and h < height - 1e-3
-        ):
-            fits.append(int(r))
-    return tuple(fits)
-
-
-def _pack_strip(
-    items: list[_Item], height: float, seconds: int, seed: int
-) -> tuple[list[np.ndarray], float]:
-    """Pack items in a strip; returns one (3, 3) transform (shape frame -> strip) per item.
-
-    Items of one key (parts of one mark) go to spyrrow as one item with their quantity."""
-    kinds: dict[str, list[int]] = {}
-    for index, item in enumerate(items):
-        kinds.setdefault(item.key or item.part.id, []).append(index)
-    members = list(kinds.values())
-    spy_items = [
-        spyrrow.Item(
-            str(k),
-            [tuple(p) for p in items[indices[0]].shape.tolist()],
-            demand=len(indices),
-            allowed_orientations=[float(r) for r in items[indices[0]].rotations],
-        )
-        for k, indices in enumerate(members)
-    ]
-    try:
-        instance = spyrrow.StripPackingInstance("fabpanel", float(height), spy_items)
-        config = spyrrow.StripPackingConfig(
-            early_termination=True,
-            num_workers=1,
-            total_computation_time=int(seconds),
-            seed=int(seed),
-        )
-        solution = instance.solve(config)
-    except (KeyboardInterrupt, SystemExit):
-        raise
-    except BaseException as err:  # spyrrow panics arrive as BaseException
-        raise SolverError(f"spyrrow failed to pack {len(items)} parts: {err}") from err
-    transforms: list[np.ndarray | None] = [None] * len(items)
-    waiting = [list(indices) for indices in members]
-    for placed in solution.placed_items:
-        t = np.eye(3)
-        t[:2, :2] = rotation_matrix(placed.rotation)
-        t[:2, 2] = placed.translation
-        queue = waiting[int(placed.id)]
-        if queue:
-            transforms[queue.pop(0)] = t
-    placed_transforms: list[np.ndarray] = []
-    for transform in transforms:
-        if transform is None:
-            raise SolverError("spyrrow left parts unplaced in an unbounded strip")
-        placed_transforms.append(transform)
-    return placed_transforms, float(solution.width)
-
-
-def _round_seconds(seconds: float) -> int:
-    return max(int(seconds), 0)
-
-
-@dataclass
-class _Packing:
-    """One plate being filled: its items and their transforms (part frame -> usable area)."""
-
-    items: list[_Item]
-    transforms: list[np.ndarray]
-
-
-def _spans(items: list[_Item], transforms: list[np.ndarray]) -> np.ndarray:
-    """(n, 2) float: x range of each placed item's shape."""
-    return np.array(
-        [
-            [(x := transform_points(t, it.shape)[:, 0]).min(), x.max()]
-            for it, t in zip(items, transforms)
-        ]
-    )
-
-
-def _pack_on_plate(
-    items: list[_Item], length: float, height: float, seconds: int, seed: int
-) -> _Packing | None:
-    """Pack items into one plate (a strip ``length`` long) or return None when they need more."""
-    transforms, _ = _pack_strip(items, height, seconds, seed)
-    spans = _spans(items, transforms)
-    if spans[:, 1].max() - spans[:, 0].min() > length + 1e-6:
-        return None
-    shift = np.eye(3)
-    shift[0, 2] = -spans[:, 0].min()
-    return _Packing(list(items), [shift @ t for t in transforms])
-
-
-def _box_plates(items: list[_Item], length: float, height: float, rotate: bool) -> list[_Packing]:
-    """A first, always feasible assignment: the items' bounding boxes packed onto plates by
-    rectpack (MaxRects, best-fit bins, quarter turns when ``rotate``), boxes rounded up to
-    0.1 mm and the plate down, so every shape lies in its box on its plate."""
-    packer = rectpack.newPacker(
-        mode=rectpack.PackingMode.Offline,
-        bin_algo=rectpack.PackingBin.BFF,
-        pack_algo=rectpack.MaxRectsBssf,
-        rotation=rotate,
-    )
-    # each box in the item's first allowed rotation; a turned box is a quarter turn more
-    base = [rotation_matrix(it.rotations[0]) for it in items]
-    boxes = [np.ceil(np.ptp(it.shape @ r.T, axis=0) * 10).astype(int) for it, r in zip(items, base)]
-    for index, box_size in enumerate(boxes):
-        packer.add_rect(int(box_size[0]), int(box_size[1]), rid=index)
-    packer.add_bin(int(length * 10), int(height * 10), count=float("inf"))
-    packer.pack()
-    plates = []
-    for plate_bin in packer:
-        members, transforms = [], []
-        for rect in plate_bin:
-            item = items[rect.rid]
-            turned = (rect.width, rect.height) != tuple(boxes[rect.rid])
-            first = item.rotations[0]
-            rotation = next(
-                (r for r in item.rotations if ((r - first) % 180 == 90) == turned), None
-            )
-            if rotation is None:
-                raise SolverError(f"rectpack turned {item.part.id}, which may not turn")
-            t = np.eye(3)
-            t[:2, :2] = rotation_matrix(rotation)
-            t[:2, 2] = np.array([rect.x, rect.y]) / 10 - (item.shape @ t[:2, :2].T).min(axis=0)
-            members.append(item)
-            transforms.append(t)
-        plates.append(_Packing(members, transforms))
-    if sum(len(p.items) for p in plates) != len(items):
-        raise SolverError(
-            f"rectpack placed {sum(len(p.items) for p in plates)} of {len(items)} parts"
-        )
-    return plates
-
-
-def _fill(
-    plate: _Packing, waiting: list[_Item], length: float, height: float, seconds: int, seed: int
-) -> _Packing:
-    """Add parts from ``waiting`` to a plate while everything still packs onto it.
-
-    The smallest waiting parts, by a binary search on how many (at most ``FILL_PROBES``
-    constructive packs, bounded by the free area); with a time budget, one more part is tried
-    with spyrrow's improvement phase.
-    """
-
-    def area(item: _Item) -> float:
-        return abs(polygon_area(item.shape))
-
-    free = length * height - sum(area(it) for it in plate.items)
-    extras = sorted(waiting, key=area)
-    areas = np.array([area(it) for it in extras])
-    low, high = 0, int(np.searchsorted(np.cumsum(areas), free, side="right"))
-    best = plate
-    for _ in range(FILL_PROBES):
-        if low >= high:
-            break
-        middle = (low + high + 1) // 2
-        packed = _pack_on_plate(plate.items + extras[:middle], length, height, 0, seed)
-        if packed is None:
-            high = middle - 1
-        else:
-            low, best = middle, packed
-    if seconds > 0 and low < len(extras) and areas[: low + 1].sum() <= free:
-        packed = _pack_on_plate(plate.items + extras[: low + 1], length, height, seconds, seed)
-        best = packed or best
-    return best
-
-
-def _shortest_pack(
-    items: list[_Item], length: float, height: float, seed: int, rotate: bool
-) -> _Packing | None:
-    """The items on one plate, as spyrrow's constructive pack or as their bounding boxes
-    (rectpack), whichever ends sooner along the plate; None when neither fits one plate. Many
-    equal long parts (ribs) box-pack in clean rows where spyrrow's pack staggers them."""
-    packs = [_pack_on_plate(items, length, height, 0, seed), _rows(items, length, height)]
-    try:
-        boxes = _box_plates(items, length, height, rotate)
-    except SolverError:
-        boxes = []  # a box larger than the plate: rectpack leaves it out
-    if len(boxes) == 1:
-        packs.append(boxes[0])
-    fitting = [p for p in packs if p is not None]
-    if not fitting:
-        return None
-    return min(fitting, key=lambda p: float(_spans(p.items, p.transforms)[:, 1].max()))
-
-
-def _rows(items: list[_Item], length: float, height: float) -> _Packing | None:
-    """The items' bounding boxes (first allowed rotation) packed as far towards the plate's
-    start as they go, or None when they need more than one plate: rectpack's bottom-left
-    MaxRects on the plate turned a quarter, so its "lowest first" is "nearest the start"."""
-    packer = rectpack.newPacker(
-        mode=rectpack.PackingMode.Offline,
-        bin_algo=rectpack.PackingBin.BFF,
-        pack_algo=rectpack.MaxRectsBl,
-        rotation=False,
-    )
-    base = [rotation_matrix(it.rotations[0]) for it in items]
-    boxes = [np.ceil(np.ptp(it.shape @ r.T, axis=0) * 10).astype(int) for it, r in zip(items, base)]
-    for index, (w, h) in enumerate(boxes):
-        packer.add_rect(int(h), int(w), rid=index)
-    packer.add_bin(int(height * 10), int(length * 10), count=1)
-    packer.pack()
-    placed = [rect for plate_bin in packer for rect in plate_bin]
-    if len(placed) != len(items):
-        return None
-    members, transforms = [], []
-    for rect in sorted(placed, key=lambda r: r.rid):
-        item, rotation = items[rect.rid], base[rect.rid]
-        t = np.eye(3)
-        t[:2, :2] = rotation
-        t[:2, 2] = np.array([rect.y, rect.x]) / 10 - (item.shape @ rotation.T).min(axis=0)
-        members.append(item)
-        transforms.append(t)
-    return _Packing(members, transforms)
-
-
-def _tail_fill(
-    plate: _Packing,
-    waiting: list[_Item],
-    length: float,
-    height: float,
-    seed: int,
-    rotate: bool,
-) -> _Packing:
-    """The plate with the free strip past its large parts filled with small ones.
-
-    spyrrow repacks a whole plate from scratch, and its constructive pack of large parts and a
-    few small ones spreads over the plate's length (the demo's 1.25 m ribs, two to a 3 m plate,
-    left a 0.5 m strip holding 2 of the 150 mm stiffeners that fit there). So the large parts
-    (at least ``SMALL_SHARE`` of the largest one's area) are packed alone, and the strip from
-    their furthest grown edge to the plate's end is packed on its own with the plate's small
-    parts and as many of the smallest waiting ones as fit (a binary search, as :func:`_fill`),
-    moved behind the large ones (packed the shorter way: :func:`_shortest_pack`). Kept when it
-    holds more part area than ``plate``.
-    """
-
-    def area(item: _Item) -> float:
-        return abs(polygon_area(item.shape))
-
-    largest = max(area(it) for it in plate.items)
-    large = [it for it in plate.items if area(it) >= SMALL_SHARE * largest]
-    small = [it for it in plate.items if area(it) < SMALL_SHARE * largest]
-    base = _shortest_pack(large, length, height, seed, rotate) if small or waiting else None
-    if base is None:
-        return plate
-    used = float(_spans(base.items, base.transforms)[:, 1].max())
-    extras = small + sorted((it for it in waiting if area(it) < SMALL_SHARE * largest), key=area)
-    room = length - used
-    if room <= 0 or not extras:
-        return plate
-    areas = np.cumsum([area(it) for it in extras])
-    low, high = len(small), int(np.searchsorted(areas, room * height, side="right"))
-    tail = _shortest_pack(extras[:low], room, height, seed, rotate) if low else _Packing([], [])
-    for _ in range(FILL_PROBES):
-        if tail is None or low >= high:
-            break
-        middle = (low + high + 1) // 2
-        packed = _shortest_pack(extras[:middle], room, height, seed, rotate)
-        if packed is None:
-            high = middle - 1
-        else:
-            low, tail = middle, packed
-    if tail is None or not tail.items:
-        return plate
-    shift = np.eye(3)
-    shift[0, 2] = used
-    filled = _Packing(
-        base.items + tail.items, base.transforms + [shift @ t for t in tail.transforms]
-    )
-    if sum(area(it) for it in filled.items) <= sum(area(it) for it in plate.items):
-        return plate
-    return filled
-
-
-def _nest_group(
-    items: list[_Item],
+def nest_group(
+    items: list[Item],
     job: Job,
     grow: float,
     budget_s: float,
     seed: int,
     on_round: Callable[[int], None],
     stock: StockSection | None = None,
-) -> tuple[list[list[tuple[_Item, np.ndarray]]], int]:
+) -> tuple[list[list[tuple[Item, np.ndarray]]], int]:
     """Plates of one group: per plate a list of (item, transform part frame -> plate); and how
     many plates the bounding boxes alone needed.
 
-    The bounding-box assignment (:func:`_box_plates`) gives each plate its first parts. Plate by
+    The bounding-box assignment (:func:`box_plates`) gives each plate its first parts. Plate by
     plate, spyrrow packs them as irregular shapes (the box layout stays when spyrrow's
     constructive pack does not fit them in one plate), then the smallest parts still waiting on
-    later plates are added while everything still packs onto this one (:func:`_fill`). Plates
+    later plates are added while everything still packs onto this one (:func:`fill_plate`). Plates
     whose parts have all moved disappear, so there are never more plates than boxes need.
     """
     cutting = job.cutting
-    length, height = _usable(job, stock)
+    length, height = usable(job, stock)
     offset = np.eye(3)
     offset[:2, 2] = cutting.plate_margin - grow
     # a part that fits one way only cannot be turned by rectpack: its turned box does not fit
     turns = {r % 180 for r in cutting.rotations} == {0, 90}
-    boxes = _box_plates(items, length, height, turns)
+    boxes = box_plates(items, length, height, turns)
     estimate = sum(abs(polygon_area(it.shape)) for it in items) / (FILL_DENSITY * length * height)
     # the budget in whole seconds per plate (spyrrow's unit), at least 1 s while any is left
     share = max(math.ceil(budget_s / max(math.ceil(estimate), 1)), 1)
     deadline = time.perf_counter() + budget_s
     placed: set[int] = set()
-    plates: list[list[tuple[_Item, np.ndarray]]] = []
+    plates: list[list[tuple[Item, np.ndarray]]] = []
     for index, assigned in enumerate(boxes):
         keep = [k for k, it in enumerate(assigned.items) if id(it) not in placed]
         if not keep:
             continue
         members = [assigned.items[k] for k in keep]
-        plate = _pack_on_plate(members, length, height, 0, seed + index) or _Packing(
+        plate = pack_on_plate(members, length, height, 0, seed + index) or Packing(
             members, [assigned.transforms[k] for k in keep]
         )
         waiting = sorted(
@@ -459,11 +116,11 @@ def _nest_group(
             key=lambda it: abs(polygon_area(it.shape)),
         )
         if len(plate.items) == len(members) and waiting:
-            left = _round_seconds(deadline - time.perf_counter())
-            plate = _fill(plate, waiting, length, height, min(share, left), seed + index)
+            left = round_seconds(deadline - time.perf_counter())
+            plate = fill_plate(plate, waiting, length, height, min(share, left), seed + index)
             inside = {id(it) for it in plate.items}
             rest = [it for it in waiting if id(it) not in inside]
-            plate = _tail_fill(plate, rest, length, height, seed + index, turns)
+            plate = tail_fill(plate, rest, length, height, seed + index, turns)
         placed |= {id(it) for it in plate.items}
         plates.append([(it, offset @ t) for it, t in zip(plate.items, plate.transforms)])
         on_round(len(items) - len(placed))
@@ -473,7 +130,7 @@ def _nest_group(
     return plates, len(boxes)
 
 
-_Layout = list[tuple[StockSection, list[tuple[_Item, np.ndarray]]]]
+_Layout = list[tuple[StockSection, list[tuple[Item, np.ndarray]]]]
 
 
 def _plate_kg(stock: StockSection, thickness: float, job: Job) -> float:
@@ -481,31 +138,31 @@ def _plate_kg(stock: StockSection, thickness: float, job: Job) -> float:
 
 
 def _nest_on_stock(
-    items: list[_Item],
+    items: list[Item],
     job: Job,
     stocks: list[StockSection],
     budget_s: float,
     on_round: Callable[[int], None],
-) -> tuple[_Layout, int, list[_Item]]:
+) -> tuple[_Layout, int, list[Item]]:
     """Plates of one group from several stock sizes: ``(stock, placements)`` per plate, the
     bounding-box plate count of the chosen nests, and the items no stock plate was left for.
 
     Greedy by cost: every stock size with plates left nests the waiting parts
-    (:func:`_nest_group`, its first ``count`` plates taken, its last plate moved to a cheaper
+    (:func:`nest_group`, its first ``count`` plates taken, its last plate moved to a cheaper
     size that holds its parts where there is one); the nest whose plates cost least per mm2 of
     part placed is kept, and the rest goes round again.
     """
     thickness = float(items[0].part.thickness) if items else 0.0
-    grow, seed = _grow(job), job.cutting.seed
+    grow, seed = packing_grow(job), job.cutting.seed
     left: list[int | None] = [s.count for s in stocks]
     waiting, layout, boxes = list(items), [], 0
     while waiting:
         best = None
         for index, stock in enumerate(stocks):
-            fitting = _on_stock(waiting, job, stock)
+            fitting = on_stock(waiting, job, stock)
             if left[index] == 0 or not fitting:
                 continue
-            plates, box_count = _nest_group(
+            plates, box_count = nest_group(
                 fitting, job, grow, budget_s, seed, lambda _: None, stock
             )
             plates = plates[: left[index]] if left[index] is not None else plates
@@ -539,7 +196,7 @@ def _cheaper_last_plates(
     """The last plate of each stock size moved onto the cheapest size (with plates left) that
     holds its parts, when that costs less; ``left`` is updated."""
     last = {id(stock): n for n, (stock, _) in enumerate(layout)}
-    grow = _grow(job)
+    grow = packing_grow(job)
     out = list(layout)
     for n in sorted(last.values()):
         stock, members = out[n]
@@ -555,10 +212,10 @@ def _cheaper_last_plates(
         for other_cost, i, other in cheaper:
             if other_cost >= cost:
                 break
-            fitting = _on_stock([it for it, _ in members], job, other)
+            fitting = on_stock([it for it, _ in members], job, other)
             if len(fitting) < len(members):
                 continue
-            packed = _pack_on_plate(fitting, *_usable(job, other), 0, job.cutting.seed + n)
+            packed = pack_on_plate(fitting, *usable(job, other), 0, job.cutting.seed + n)
             if packed is None:
                 continue
             offset = np.eye(3)
@@ -588,15 +245,15 @@ def pierces(part: FlatPart) -> int:
     return 1 + len(part.holes) + len(part.round_holes)
 
 
-def _grow(job: Job) -> float:
+def packing_grow(job: Job) -> float:
     """How far packing shapes are grown beyond the outlines, mm."""
     return job.cutting.part_spacing / 2 + SAFETY_GAP
 
 
-def _usable(job: Job, stock: StockSection | None = None) -> tuple[float, float]:
+def usable(job: Job, stock: StockSection | None = None) -> tuple[float, float]:
     """(length, height) of the area the grown shapes are packed into on one plate of ``stock``
     (default: the job's plate), mm."""
-    cutting, grow = job.cutting, _grow(job)
+    cutting, grow = job.cutting, packing_grow(job)
     length, width = (
         (cutting.plate_length, cutting.plate_width)
         if stock is None
@@ -608,22 +265,24 @@ def _usable(job: Job, stock: StockSection | None = None) -> tuple[float, float]:
     )
 
 
-def _on_stock(items: list[_Item], job: Job, stock: StockSection) -> list[_Item]:
+def on_stock(items: list[Item], job: Job, stock: StockSection) -> list[Item]:
     """The items that fit a plate of ``stock``, each with the rotations it fits in there."""
-    length, height = _usable(job, stock)
+    length, height = usable(job, stock)
     fitting = []
     for item in items:
-        rotations = _fitting_rotations(item.shape, list(item.rotations), length, height)
+        rotations = fitting_rotations(item.shape, list(item.rotations), length, height)
         if rotations:
             fitting.append(dataclasses.replace(item, rotations=rotations))
     return fitting
 
 
-def _groups(flat: FlatParts, job: Job) -> tuple[dict[tuple[str, float], list[_Item]], list[Issue]]:
+def nest_groups(
+    flat: FlatParts, job: Job
+) -> tuple[dict[tuple[str, float], list[Item]], list[Issue]]:
     """Parts ready for packing, by (material, thickness); issues for parts left out."""
     cutting = job.cutting
     issues: list[Issue] = []
-    groups: dict[tuple[str, float], list[_Item]] = defaultdict(list)
+    groups: dict[tuple[str, float], list[Item]] = defaultdict(list)
     frames = _mark_frames(flat)
     shapes: dict[str, np.ndarray] = {}
     for part in flat.parts:
@@ -632,7 +291,7 @@ def _groups(flat: FlatParts, job: Job) -> tuple[dict[tuple[str, float], list[_It
         except ValueError as err:
             issues.append(Issue("invalid-outline", str(err), part.id, "error"))
             continue
-        key, to_shape, grow = part.id, _IDENTITY, _grow(job)
+        key, to_shape, grow = part.id, np.eye(3), packing_grow(job)
         if part.id in frames:  # one shape for the whole mark, in its first part's frame
             first, to_shape = frames[part.id]
             key = part.mark
@@ -644,7 +303,7 @@ def _groups(flat: FlatParts, job: Job) -> tuple[dict[tuple[str, float], list[_It
         stocks = cutting.stock_for(float(part.thickness))
         rotations = tuple(int(r) for r in cutting.rotations)
         if not any(
-            _fitting_rotations(shape, list(rotations), *_usable(job, stock)) for stock in stocks
+            fitting_rotations(shape, list(rotations), *usable(job, stock)) for stock in stocks
         ):
             size = outline.max(axis=0) - outline.min(axis=0)
             sizes = " or ".join(f"{s.length:.0f} x {s.width:.0f}" for s in stocks) or "no stock"
@@ -660,7 +319,7 @@ def _groups(flat: FlatParts, job: Job) -> tuple[dict[tuple[str, float], list[_It
             )
             continue
         groups[(part.material, float(part.thickness))].append(
-            _Item(part, shape, rotations, key, to_shape)
+            Item(part, shape, rotations, key, to_shape)
         )
     return groups, issues
 
@@ -683,12 +342,12 @@ def bounding_box_plates(flat: FlatParts, job: Job) -> dict[tuple[str, float], in
     """Plates per (material, thickness) when only the parts' bounding boxes are packed (the
     naive nest, and the first assignment :func:`nest` improves on)."""
     turns = {r % 180 for r in job.cutting.rotations} == {0, 90}
-    groups, _ = _groups(flat, job)
+    groups, _ = nest_groups(flat, job)
     plates = {}
     for key, items in sorted(groups.items()):
         stock = job.cutting.stock_for(key[1])[0]
-        fitting = _on_stock(items, job, stock)
-        plates[key] = len(_box_plates(fitting, *_usable(job, stock), turns)) if fitting else 0
+        fitting = on_stock(items, job, stock)
+        plates[key] = len(box_plates(fitting, *usable(job, stock), turns)) if fitting else 0
     return plates
 
 
@@ -717,7 +376,7 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
     """
     cutting = job.cutting
     started = time.perf_counter()
-    groups, issues = _groups(flat, job)
+    groups, issues = nest_groups(flat, job)
 
     total = sum(len(g) for g in groups.values())
     placed_parts = 0

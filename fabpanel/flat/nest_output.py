@@ -23,7 +23,7 @@ from shapely.geometry import Polygon
 
 from ..data import FlatPart, FlatParts, Nests, Plate
 from .dxf import add_part, bend_marks, new_document, save
-from .nest import transform_points
+from .packing import transform_points
 
 log = logging.getLogger(__name__)
 

@@ -14,7 +14,8 @@ from __future__ import annotations
 
 from ..data import FlatParts
 from ..job import Job, StockSection
-from .nest import _box_plates, _groups, _grow, _Item, _nest_group, _on_stock, _usable
+from .nest import nest_group, nest_groups, on_stock, packing_grow, usable
+from .packing import Item, box_plates
 
 #: common stock formats (length, width) of sheet and plate, mm
 STANDARD_SIZES = (
@@ -47,17 +48,15 @@ def _bought(plates: int, stock: StockSection, kg_per_mm2: float) -> float:
     return plates * stock.length * stock.width * kg_per_mm2
 
 
-def _box_ranked(
-    items: list[_Item], job: Job, kg_per_mm2: float
-) -> list[tuple[float, StockSection]]:
+def _box_ranked(items: list[Item], job: Job, kg_per_mm2: float) -> list[tuple[float, StockSection]]:
     """Candidates holding every part, by the steel their bounding-box nest buys."""
     turns = {r % 180 for r in job.cutting.rotations} == {0, 90}
     ranked = []
     for stock in candidate_sizes(job, float(items[0].part.thickness)):
-        fitting = _on_stock(items, job, stock)
+        fitting = on_stock(items, job, stock)
         if len(fitting) < len(items):
             continue
-        plates = len(_box_plates(fitting, *_usable(job, stock), turns))
+        plates = len(box_plates(fitting, *usable(job, stock), turns))
         ranked.append((_bought(plates, stock, kg_per_mm2), stock))
     return sorted(ranked, key=lambda r: (r[0], r[1].length * r[1].width))
 
@@ -65,16 +64,16 @@ def _box_ranked(
 def suggest_stock(flat: FlatParts, job: Job) -> list[dict]:
     """Per (material, thickness): the suggested stock size, its plates, steel bought and net
     (kg), their ratio and the scrap, JSON-ready. Groups no standard size holds are left out."""
-    groups, _ = _groups(flat, job)
-    grow = _grow(job)
+    groups, _ = nest_groups(flat, job)
+    grow = packing_grow(job)
     out = []
     for (material, thickness), items in sorted(groups.items()):
         kg_per_mm2 = thickness * float(job.material.density)
         net = sum(it.part.area for it in items) * kg_per_mm2
         best = None
         for _, stock in _box_ranked(items, job, kg_per_mm2)[:NESTED_CANDIDATES]:
-            plates, _ = _nest_group(
-                _on_stock(items, job, stock),
+            plates, _ = nest_group(
+                on_stock(items, job, stock),
                 job,
                 grow,
                 0.0,
