@@ -396,6 +396,12 @@ def _echo_stock(metrics: dict) -> None:
             f"of parts ({metrics['bought_to_net']:.2f} x)",
             err=True,
         )
+    for bar in metrics.get("flat_bars", []):
+        click.echo(
+            f"  flat bar: {bar['pieces']} ribs sawn from {bar['bars']} bars of "
+            f"{bar['bar_length_mm'] / 1000:g} m, {bar['width_mm']:g} x {bar['thickness_mm']:g} mm",
+            err=True,
+        )
     now = {(g["material"], g["thickness_mm"]): g for g in metrics.get("groups", [])}
     better = [
         s

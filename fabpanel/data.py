@@ -382,6 +382,9 @@ class FlatPart:
         the part mark (:mod:`fabpanel.flat.marks`): parts equal within 0.1 mm share it.
     bend_tick : float
         sheets: bend lines are etched as ticks this long at the edges (0: full lines), mm.
+    stock_form : str
+        ``plate`` (burnt from plate, nested) or ``flat-bar`` (a straight rib sawn from flat
+        bar, :mod:`fabpanel.flat.flatbar`).
     """
 
     id: str
@@ -403,6 +406,7 @@ class FlatPart:
     face: str = ""
     mark: str = ""
     bend_tick: float = 0.0
+    stock_form: Literal["plate", "flat-bar"] = "plate"
     files: tuple[str, ...] = ()
 
     @property
@@ -428,6 +432,8 @@ class FlatPart:
         }
         if self.forming:
             record["forming"] = self.forming
+        if self.stock_form != "plate":
+            record["stock_form"] = self.stock_form
         if self.edge_lengths_flat is not None:
             record["edge_lengths_flat_mm"] = _round(self.edge_lengths_flat, 3)
             record["edge_lengths_3d_mm"] = _round(self.edge_lengths_3d, 3)

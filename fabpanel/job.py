@@ -672,6 +672,13 @@ class CuttingSection(_Section):
     #: bend lines etched as short ticks at the sheet's edges (the roller lines them up), or as
     #: full lines across the sheet
     bend_marks: Literal["ticks", "lines"] = "ticks"
+    #: straight ribs of constant height at most 150 mm (EN 10058 flat bar) are sawn from flat
+    #: bar, not burnt from plate and nested (:mod:`fabpanel.flat.flatbar`)
+    flat_bar: bool = False
+    #: length of the flat bars bought
+    bar_length: PositiveLength = _default("6000 mm")
+    #: saw kerf per cut on the flat bars
+    saw_kerf: NonNegativeLength = _default("3 mm")
     seed: int = Field(default=0, ge=0)
     #: stock plate sizes to nest on (``[[cutting.stock]]``); a thickness no entry names (and every
     #: thickness without entries) is nested on plate_length x plate_width, as many as needed.

@@ -522,7 +522,7 @@ def build_manifest(result: Result, files: dict[str, list[str]]) -> dict:
 BOM_COLUMNS = (
     "part", "mark", "quantity", "kind", "panel", "material", "thickness_mm", "flat_area_mm2",
     "volume_mm3", "mass_kg", "flat_length_mm", "flat_width_mm", "max_strain", "forming",
-    "cut_length_mm", "pierces", "plate", "files",
+    "cut_length_mm", "pierces", "plate", "files", "stock",
 )  # fmt: skip
 MARK_COLUMNS = (
     "mark", "quantity", "kind", "material", "thickness_mm", "flat_length_mm", "flat_width_mm",
@@ -570,7 +570,18 @@ def _bom_rows(result: Result, files: dict[str, list[str]]):
             pierces(flat) if flat is not None else "",
             plate_of.get(part.id, ""),
             " ".join(files.get(part.id, [])),
+            _stock_of(flat),
         ]
+
+
+def _stock_of(flat: FlatPart | None) -> str:
+    """What a part is cut from: ``plate``, ``flat bar 150 x 8`` (sawn), "" (not laid flat)."""
+    from .flat.flatbar import bar_size
+
+    if flat is None:
+        return ""
+    size = bar_size(flat) if flat.stock_form == "flat-bar" else None
+    return f"flat bar {size[0]:g} x {flat.thickness:g}" if size else "plate"
 
 
 def _write_marks(result: Result, path: Path, files: dict[str, list[str]]) -> None:

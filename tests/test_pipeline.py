@@ -92,6 +92,7 @@ def test_output_contract(vault_run):
         rows = list(csv.DictReader(handle))
     assert [r["part"] for r in rows] == [p["id"] for p in manifest["parts"]]
     assert all(int(r["quantity"]) == marks[r["mark"]]["quantity"] for r in rows)
+    assert {r["stock"] for r in rows} == {"plate"}  # [cutting] flat_bar is off by default
     mass = sum(float(r["mass_kg"]) for r in rows)
     assert mass == pytest.approx(vault_run.model.mass, rel=1e-4)
     # the vault's sheets roll with their outer faces convex, at their mid-fibre radii

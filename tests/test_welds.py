@@ -202,3 +202,40 @@ def test_rib_bolt_holes_are_drilled_by_default_and_burnt_by_fine_plasma(develope
     assert ribs and all(f.round_holes and not f.drill_holes for f in ribs)
     # unsniped: every plate keeps its four corners
     assert all(_corners(p.outline) == 4 for p in model.parts if p.kind in ("rib", "stiffener"))
+
+
+# --------------------------------------------------------------------------------------------
+# flat bar
+# --------------------------------------------------------------------------------------------
+def test_straight_ribs_are_sawn_from_flat_bar(developed):
+    from fabpanel.flat.flatbar import bar_size, bars_needed
+    from fabpanel.flat.nest import nest
+
+    job = Job.from_dict({"cutting": {"flat_bar": True}})
+    model = build(developed, job, jobs=1)
+    flat = cut(model, job, jobs=1)
+    sawn = [f for f in flat.parts if f.stock_form == "flat-bar"]
+    # the straight ribs along the cylinder's axis (ribs 1 and 3 here, sniped: coped after
+    # sawing) are 150 x 8 flat bar; the arched ribs across it stay plate parts
+    straight = [f for f in flat.parts if f.kind == "rib" and np.ptp(f.outline[:, 1]) < 151]
+    assert {f.id for f in sawn} == {f.id for f in straight} and len(sawn) == 8
+    for part in sawn:
+        width, length = bar_size(part)
+        assert width == pytest.approx(150.0, abs=0.2)
+        assert length == pytest.approx(np.ptp(part.outline[:, 0]), abs=1e-6)
+    arched = [f for f in flat.parts if f.kind == "rib" and f.stock_form == "plate"]
+    assert len(arched) == 8 and all(bar_size(f) is None for f in arched)
+    nests = nest(flat, job)
+    placed = {pl.part_id for plate in nests.plates for pl in plate.placements}
+    assert not placed & {f.id for f in sawn}
+    assert nests.metrics["parts_left_out"] == 0
+    (bars,) = nests.metrics["flat_bars"]
+    assert bars["pieces"] == len(sawn) and bars["width_mm"] == pytest.approx(150.0, abs=0.2)
+    lengths = [bar_size(f)[1] for f in sawn]
+    assert bars["bars"] == bars_needed(lengths, 6000.0, 3.0)
+    assert bars["bought_kg"] >= bars["net_kg"] > 0
+    # first fit decreasing: a 3 m and a 2.9 m piece share a 6 m bar with a 3 mm kerf, two 3 m
+    # pieces do not (the cut between them eats 3 mm)
+    assert bars_needed([2900.0] * 5 + [3000.0] * 5, 6000.0, 3.0) == 5
+    assert bars_needed([3000.0] * 10, 6000.0, 3.0) == 10
+    assert bars_needed([3000.0] * 10, 6000.0, 0.0) == 5

@@ -45,6 +45,7 @@ from ..data import FlatPart, FlatParts, Nests, Placement, Plate
 from ..errors import Issue
 from ..geom.polygon import polygon_area, polyline_length
 from ..job import Job, StockSection
+from .flatbar import bar_metrics
 from .marks import TOLERANCE as MARK_TOLERANCE
 from .packing import (
     SAFETY_GAP,
@@ -286,6 +287,8 @@ def nest_groups(
     frames = _mark_frames(flat)
     shapes: dict[str, np.ndarray] = {}
     for part in flat.parts:
+        if part.stock_form == "flat-bar":
+            continue  # sawn from bar (fabpanel.flat.flatbar), not nested
         try:
             outline = validate_outline(part.outline, part.id)
         except ValueError as err:
@@ -454,6 +457,8 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
     by_id = {p.id: p for p in flat.parts}
     placed = [by_id[pl.part_id] for plate in plates for pl in plate.placements]
     plate_area = sum(p.size[0] * p.size[1] for p in plates)
+    sawn = [p for p in flat.parts if p.stock_form == "flat-bar"]
+    bars = bar_metrics(sawn, cutting.bar_length, cutting.saw_kerf, float(job.material.density))
     metrics = {
         "plates": len(plates),
         "plates_lower_bound": lower_bound,
@@ -461,14 +466,16 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
         "utilisation_by_plate": {p.name: round(p.utilisation, 4) for p in plates},
         "utilisation": sum(p.area for p in placed) / plate_area if plates else 0.0,
         "parts_placed": len(placed),
-        "parts_left_out": len(flat.parts) - len(placed),
+        "parts_left_out": len(flat.parts) - len(placed) - len(sawn),
+        "parts_sawn_from_bar": len(sawn),
         "cut_length_mm": float(sum(cut_length(p) for p in placed)),
         "pierces": int(sum(pierces(p) for p in placed)),
         "time_s": round(time.perf_counter() - started, 3),
-        # steel bought (whole plates) against steel in the parts (net flat areas)
-        "bought_kg": round(sum(g["bought_kg"] for g in group_metrics), 2),
-        "net_kg": round(sum(g["net_kg"] for g in group_metrics), 2),
+        # steel bought (whole plates and bars) against steel in the parts (net flat areas)
+        "bought_kg": round(sum(g["bought_kg"] for g in group_metrics + bars), 2),
+        "net_kg": round(sum(g["net_kg"] for g in group_metrics + bars), 2),
         "groups": group_metrics,
+        "flat_bars": bars,
     }
     metrics["bought_to_net"] = (
         round(metrics["bought_kg"] / metrics["net_kg"], 3) if metrics["net_kg"] else None

@@ -202,19 +202,30 @@ def pack_on_plate(
     return Packing(list(items), [shift @ t for t in transforms])
 
 
+def _packer(algorithm, rotate: bool):
+    """A rectpack packer (offline, best-fit bins) with the given MaxRects rule."""
+    return rectpack.newPacker(
+        mode=rectpack.PackingMode.Offline,
+        bin_algo=rectpack.PackingBin.BFF,
+        pack_algo=algorithm,
+        rotation=rotate,
+    )
+
+
+def _boxes(items: list[Item]) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Each item's first allowed rotation and its bounding box in it, in 0.1 mm (rounded up)."""
+    base = [rotation_matrix(it.rotations[0]) for it in items]
+    boxes = [np.ceil(np.ptp(it.shape @ r.T, axis=0) * 10).astype(int) for it, r in zip(items, base)]
+    return base, boxes
+
+
 def box_plates(items: list[Item], length: float, height: float, rotate: bool) -> list[Packing]:
     """A first, always feasible assignment: the items' bounding boxes packed onto plates by
     rectpack (MaxRects, best-fit bins, quarter turns when ``rotate``), boxes rounded up to
     0.1 mm and the plate down, so every shape lies in its box on its plate."""
-    packer = rectpack.newPacker(
-        mode=rectpack.PackingMode.Offline,
-        bin_algo=rectpack.PackingBin.BFF,
-        pack_algo=rectpack.MaxRectsBssf,
-        rotation=rotate,
-    )
+    packer = _packer(rectpack.MaxRectsBssf, rotate)
     # each box in the item's first allowed rotation; a turned box is a quarter turn more
-    base = [rotation_matrix(it.rotations[0]) for it in items]
-    boxes = [np.ceil(np.ptp(it.shape @ r.T, axis=0) * 10).astype(int) for it, r in zip(items, base)]
+    _, boxes = _boxes(items)
     for index, box_size in enumerate(boxes):
         packer.add_rect(int(box_size[0]), int(box_size[1]), rid=index)
     packer.add_bin(int(length * 10), int(height * 10), count=float("inf"))
@@ -300,14 +311,8 @@ def rows_pack(items: list[Item], length: float, height: float) -> Packing | None
     """The items' bounding boxes (first allowed rotation) packed as far towards the plate's
     start as they go, or None when they need more than one plate: rectpack's bottom-left
     MaxRects on the plate turned a quarter, so its "lowest first" is "nearest the start"."""
-    packer = rectpack.newPacker(
-        mode=rectpack.PackingMode.Offline,
-        bin_algo=rectpack.PackingBin.BFF,
-        pack_algo=rectpack.MaxRectsBl,
-        rotation=False,
-    )
-    base = [rotation_matrix(it.rotations[0]) for it in items]
-    boxes = [np.ceil(np.ptp(it.shape @ r.T, axis=0) * 10).astype(int) for it, r in zip(items, base)]
+    packer = _packer(rectpack.MaxRectsBl, False)
+    base, boxes = _boxes(items)
     for index, (w, h) in enumerate(boxes):
         packer.add_rect(int(h), int(w), rid=index)
     packer.add_bin(int(height * 10), int(length * 10), count=1)

@@ -29,6 +29,7 @@ from ..geom.polygon import polygon_area
 from ..job import Job
 from ..parallel import worker_pool
 from .bending import Bending, bending_of
+from .flatbar import bar_size
 from .holing import is_drilled
 from .strokefont import text_width
 
@@ -336,6 +337,11 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
         )
         for flat in flats
     ]
+    if cutting.flat_bar:
+        flats = [
+            dataclasses.replace(flat, stock_form="flat-bar") if bar_size(flat) else flat
+            for flat in flats
+        ]
     flats, marks = _marked(flats, BEND_TICK if job.cutting.bend_marks == "ticks" else 0.0)
     for part, flat in zip(model.parts, flats):
         if flat.max_strain > tolerance:
