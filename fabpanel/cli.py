@@ -413,7 +413,8 @@ def _echo_stock(metrics: dict) -> None:
         was = now[(s["material"], s["thickness_mm"])]
         click.echo(
             f"  stock: {s['material']} {s['thickness_mm']:g} mm on {s['length_mm']:g} x "
-            f"{s['width_mm']:g} mm plates would buy {s['bought_to_net']:.2f} x net "
+            f"{s['width_mm']:g} mm plates{' cut from coil' if s.get('from_coil') else ''} "
+            f"would buy {s['bought_to_net']:.2f} x net "
             f"(now {was['bought_kg'] / was['net_kg']:.2f} x)",
             err=True,
         )

@@ -15,6 +15,7 @@ running ones terminated at once instead of being waited for.
 from __future__ import annotations
 
 import ctypes
+import multiprocessing
 import os
 import signal
 import sys
@@ -33,16 +34,18 @@ _PR_SET_PDEATHSIG = 1
 _TERMINATE_WAIT = 2.0
 
 
-def _die_with_parent(parent: int) -> None:
+def _die_with_parent(parent: int | None) -> None:
+    """Killed when the parent dies. ``parent``: its pid, or None for a worker started by a
+    fork server (which dies with the run: it exits when the run's end of its pipe closes)."""
     if not sys.platform.startswith("linux"):
         return
     libc = ctypes.CDLL(None, use_errno=True)
     libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    if os.getppid() != parent:  # the parent died before prctl took effect
+    if parent is not None and os.getppid() != parent:  # died before prctl took effect
         os._exit(1)
 
 
-def _init_worker(parent: int) -> None:
+def _init_worker(parent: int | None) -> None:
     global _limits
     _die_with_parent(parent)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -68,10 +71,19 @@ def terminate_pool(pool: ProcessPoolExecutor) -> None:
 
 
 @contextmanager
-def worker_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
-    """A process pool whose workers use one BLAS thread each and never outlive the run."""
+def worker_pool(workers: int, fresh: bool = False) -> Iterator[ProcessPoolExecutor]:
+    """A process pool whose workers use one BLAS thread each and never outlive the run.
+
+    fresh : start the workers from a fresh server process ("forkserver") instead of forking
+        this one. Needed once this process has run spyrrow: its Rust thread pool does not
+        survive a fork, and a forked worker packing with it waits forever.
+    """
+    context = multiprocessing.get_context("forkserver") if fresh else None
     pool = ProcessPoolExecutor(
-        max_workers=workers, initializer=_init_worker, initargs=(os.getpid(),)
+        max_workers=workers,
+        mp_context=context,
+        initializer=_init_worker,
+        initargs=(None if fresh else os.getpid(),),
     )
     try:
         yield pool

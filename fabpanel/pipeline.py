@@ -247,7 +247,7 @@ def _run_stages(
             if job.cutting.suggest_stock:
                 from .flat.stock import suggest_stock
 
-                suggestion = suggest_stock(flat, job)
+                suggestion = suggest_stock(flat, job, jobs)
                 nests = dataclasses.replace(
                     nests, metrics={**nests.metrics, "stock_suggestion": suggestion}
                 )

@@ -116,3 +116,20 @@ def test_the_suggestion_buys_less_than_the_job_plate_and_pastes_back():
     stock = tomllib.loads(text)["cutting"]["stock"]
     again = nest(flat, job(stock))
     np.testing.assert_allclose(again.metrics["bought_kg"], best["bought_kg"], rtol=1e-3)
+
+
+def test_a_length_cut_from_coil_is_suggested_where_no_format_fits_well():
+    """2700 x 1100 mm sheets take one standard 3000 x 1250 plate each (1.26 x net); cut to
+    2750 mm from a 1250 mm coil they buy 1.16 x, and 25 mm plates (thicker than coil) do not
+    get coil lengths."""
+    parts = tuple(flat_part(f"P{i:03d}-TOP", rectangle(2700.0, 1100.0)) for i in range(4))
+    suggestion = suggest_stock(FlatParts(parts=parts), job(), jobs=1)
+    (best,) = suggestion
+    # 2750 mm, or 5500 mm holding two (the same steel, fewer plates)
+    assert best["from_coil"] and best["width_mm"] == 1250.0
+    assert best["plates"] * best["length_mm"] == 4 * 2750.0
+    assert best["bought_to_net"] == pytest.approx(2750 * 1250 / (2700 * 1100), abs=1e-3)
+    assert "# cut to length from coil" in stock_toml(suggestion)
+    thick = tuple(flat_part(f"P{i:03d}-TOP", rectangle(2700.0, 1100.0), 25.0) for i in range(4))
+    (plate,) = suggest_stock(FlatParts(parts=thick), job(), jobs=1)
+    assert not plate["from_coil"]

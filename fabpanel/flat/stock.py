@@ -2,8 +2,9 @@
 thickness.
 
 Candidates are the common stock formats of hot- and cold-rolled sheet and plate in the mill
-widths 1000, 1250, 1500, 2000 and 2500 mm (``STANDARD_SIZES``, 2000 x 1000 to 6000 x 2500), and
-the job's own stock. Each is first ranked by the plates its parts' bounding boxes need (rectpack, a few
+widths 1000, 1250, 1500, 2000 and 2500 mm (``STANDARD_SIZES``, 2000 x 1000 to 6000 x 2500), sheet
+cut to length from coil (2000-6000 mm in 250 mm steps, widths up to 2000 mm, up to 20 mm thick),
+and the job's own stock. Each is first ranked by the plates its parts' bounding boxes need (rectpack, a few
 milliseconds); the ``NESTED_CANDIDATES`` best are then nested for real (spyrrow's constructive
 pack, as :func:`fabpanel.flat.nest.nest` does with a 0 s budget) and the one with the least steel
 bought wins (fewer plates on a tie). Reported per group with bought against net weight and the
@@ -12,8 +13,13 @@ scrap; the job adopts it with ``[[cutting.stock]]``.
 
 from __future__ import annotations
 
+import os
+
+import numpy as np
+
 from ..data import FlatParts
 from ..job import Job, StockSection
+from ..parallel import worker_pool
 from .nest import nest_group, nest_groups, on_stock, packing_grow, usable
 from .packing import Item, box_plates
 
@@ -32,16 +38,35 @@ STANDARD_SIZES = (
     (6000.0, 2500.0),
 )
 STANDARD_WIDTHS = tuple(sorted({w for _, w in STANDARD_SIZES}))
-#: candidates nested for real after the bounding-box ranking
+#: sheet cut to length from coil: any length in this range (in COIL_STEP steps), in the
+#: standard widths up to COIL_MAX_WIDTH, for thicknesses up to COIL_MAX_THICKNESS (hot-rolled
+#: wide strip; thicker plate comes as plate only)
+COIL_LENGTHS = (2000.0, 6000.0)
+COIL_STEP = 250.0
+COIL_MAX_WIDTH = 2000.0
+COIL_MAX_THICKNESS = 20.0
+#: plate formats and coil lengths nested for real after the bounding-box ranking
 NESTED_CANDIDATES = 4
+NESTED_COIL = 2
 
 
 def candidate_sizes(job: Job, thickness: float) -> list[StockSection]:
-    """The standard sizes and the job's own stock for parts of ``thickness``, each once."""
+    """The standard sizes, the lengths cut from coil and the job's own stock for parts of
+    ``thickness``, each once."""
     sizes = {(length, width): StockSection.of(length, width) for length, width in STANDARD_SIZES}
+    if thickness <= COIL_MAX_THICKNESS:
+        lengths = np.arange(COIL_LENGTHS[0], COIL_LENGTHS[1] + 1e-9, COIL_STEP)
+        for width in (w for w in STANDARD_WIDTHS if w <= COIL_MAX_WIDTH):
+            for length in lengths:
+                sizes.setdefault((float(length), width), StockSection.of(length, width))
     for stock in job.cutting.stock_for(thickness):
         sizes.setdefault((stock.length, stock.width), StockSection.of(stock.length, stock.width))
     return list(sizes.values())
+
+
+def from_coil(length: float, width: float) -> bool:
+    """Whether a suggested size is cut to length from coil (not a standard plate format)."""
+    return (length, width) not in STANDARD_SIZES
 
 
 def _bought(plates: int, stock: StockSection, kg_per_mm2: float) -> float:
@@ -61,32 +86,63 @@ def _box_ranked(items: list[Item], job: Job, kg_per_mm2: float) -> list[tuple[fl
     return sorted(ranked, key=lambda r: (r[0], r[1].length * r[1].width))
 
 
-def suggest_stock(flat: FlatParts, job: Job) -> list[dict]:
+def _candidates(items: list[Item], job: Job, thickness: float) -> list[StockSection]:
+    """The sizes nested for real: the best plate formats and coil lengths by their boxes, and
+    what the job nests on now (so the suggestion is never worse than it): the box count is only
+    a rough guide to the real nest."""
+    kg_per_mm2 = thickness * float(job.material.density)
+    ranked = [stock for _, stock in _box_ranked(items, job, kg_per_mm2)]
+    current = {(s.length, s.width) for s in job.cutting.stock_for(thickness)}
+    plates = [s for s in ranked if not from_coil(s.length, s.width)]
+    coil = [s for s in ranked if from_coil(s.length, s.width)]
+    nested = plates[:NESTED_CANDIDATES] + coil[:NESTED_COIL]
+    return nested + [s for s in ranked if (s.length, s.width) in current and s not in nested]
+
+
+def _plates_on(items: list[Item], job: Job, stock: StockSection) -> int:
+    """Plates of ``stock`` the items' real nest needs (a worker process's task)."""
+    fitting = on_stock(items, job, stock)
+    plates, _ = nest_group(
+        fitting, job, packing_grow(job), 0.0, job.cutting.seed, lambda _: None, stock
+    )
+    return len(plates)
+
+
+def suggest_stock(flat: FlatParts, job: Job, jobs: int | None = None) -> list[dict]:
     """Per (material, thickness): the suggested stock size, its plates, steel bought and net
-    (kg), their ratio and the scrap, JSON-ready. Groups no standard size holds are left out."""
+    (kg), their ratio, the scrap and whether it is cut from coil, JSON-ready. Groups no
+    candidate holds are left out. The candidates' nests run in ``jobs`` worker processes
+    (default: all cores; 1 inline)."""
     groups, _ = nest_groups(flat, job)
-    grow = packing_grow(job)
-    out = []
-    for (material, thickness), items in sorted(groups.items()):
-        kg_per_mm2 = thickness * float(job.material.density)
-        net = sum(it.part.area for it in items) * kg_per_mm2
-        best = None
-        for _, stock in _box_ranked(items, job, kg_per_mm2)[:NESTED_CANDIDATES]:
-            plates, _ = nest_group(
-                on_stock(items, job, stock),
-                job,
-                grow,
-                0.0,
-                job.cutting.seed,
-                lambda _: None,
-                stock,
+    tasks = [
+        (key, stock)
+        for key, items in sorted(groups.items())
+        for stock in _candidates(items, job, key[1])
+    ]
+    workers = min(jobs or os.cpu_count() or 1, len(tasks))
+    if workers > 1:
+        with worker_pool(workers, fresh=True) as pool:  # this process has run spyrrow
+            counts = list(
+                pool.map(
+                    _plates_on,
+                    [groups[key] for key, _ in tasks],
+                    [job] * len(tasks),
+                    [stock for _, stock in tasks],
+                )
             )
-            bought = _bought(len(plates), stock, kg_per_mm2)
-            if best is None or (bought, len(plates)) < (best[0], best[1]):
-                best = (bought, len(plates), stock)
-        if best is None or net <= 0:
+    else:
+        counts = [_plates_on(groups[key], job, stock) for key, stock in tasks]
+    best: dict[tuple[str, float], tuple[float, int, StockSection]] = {}
+    for (key, stock), count in zip(tasks, counts):
+        bought = _bought(count, stock, key[1] * float(job.material.density))
+        if key not in best or (bought, count) < best[key][:2]:
+            best[key] = (bought, count, stock)
+    out = []
+    for (material, thickness), (bought, count, stock) in sorted(best.items()):
+        net = sum(it.part.area for it in groups[(material, thickness)])
+        net *= thickness * float(job.material.density)
+        if net <= 0:
             continue
-        bought, count, stock = best
         out.append(
             {
                 "material": material,
@@ -98,6 +154,7 @@ def suggest_stock(flat: FlatParts, job: Job) -> list[dict]:
                 "net_kg": round(net, 1),
                 "bought_to_net": round(bought / net, 3),
                 "scrap_kg": round(bought - net, 1),
+                "from_coil": from_coil(stock.length, stock.width),
             }
         )
     return out
@@ -108,5 +165,6 @@ def stock_toml(suggestion: list[dict]) -> str:
     return "\n".join(
         f'[[cutting.stock]]\nlength = "{s["length_mm"]:g} mm"\nwidth = "{s["width_mm"]:g} mm"\n'
         f'thickness = "{s["thickness_mm"]:g} mm"\n'
+        + ("# cut to length from coil\n" if s.get("from_coil") else "")
         for s in suggestion
     )

@@ -14,6 +14,7 @@ import logging
 
 import numpy as np
 
+from ..buildup import Buildup
 from ..data import PanelLayout, Surface
 from ..errors import GeometryError
 from ..job import Job
@@ -147,13 +148,7 @@ def skeleton_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelL
 
 
 def oversize_panels(vertices: np.ndarray, quads: np.ndarray, job: Job) -> np.ndarray:
-    cutting = job.cutting
-    usable = np.sort(
-        [
-            cutting.plate_length - 2 * cutting.plate_margin,
-            cutting.plate_width - 2 * cutting.plate_margin,
-        ]
-    )[::-1]
+    usable = np.array(Buildup.of(job).usable_plate)
     extents = np.sort(panel_extents(vertices[quads]), axis=1)[:, ::-1]
     return ~np.all(extents <= usable, axis=1)
 

@@ -107,12 +107,7 @@ def layout_metrics(
         side_lengths[:, 0] + side_lengths[:, 2], side_lengths[:, 1] + side_lengths[:, 3]
     ) / np.minimum(side_lengths[:, 0] + side_lengths[:, 2], side_lengths[:, 1] + side_lengths[:, 3])
     extents = np.sort(panel_extents(corners), axis=1)[:, ::-1]
-    usable = np.sort(
-        [
-            cutting.plate_length - 2 * cutting.plate_margin,
-            cutting.plate_width - 2 * cutting.plate_margin,
-        ]
-    )[::-1]
+    usable = np.array(cutting.usable)  # (long, short) inside the margins
     fits = np.all(extents <= usable, axis=1)
     _, _, distances = query.closest(layout.vertices)
     issues = tuple(
