@@ -32,7 +32,6 @@ from pydantic import (
     model_validator,
 )
 
-from .buildup import MIN_SHEET_BEARING, default_setback, default_throat
 from .errors import InputError
 from .fasteners import (
     MIN_ENGAGEMENT,
@@ -43,6 +42,7 @@ from .fasteners import (
     default_tool,
 )
 from .units import as_written, format_like, format_number, format_quantity, parse_quantity
+from .welds import MIN_SHEET_BEARING, default_setback, default_throat
 
 
 def _quantity(dimension: str) -> list[Any]:

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from conftest import cylinder_developed
 
-from fabpanel.buildup import Buildup, default_setback, default_throat, packing_side
+from fabpanel.buildup import Buildup
 from fabpanel.data import Hole
 from fabpanel.errors import InputError
 from fabpanel.flat import cut
@@ -18,6 +18,7 @@ from fabpanel.geom.polygon import polygon_area
 from fabpanel.job import Job
 from fabpanel.model import build, occ
 from fabpanel.model.plates import outline_edges
+from fabpanel.welds import default_setback, default_throat, packing_side
 
 
 def _refused(sandwich: dict) -> str:
