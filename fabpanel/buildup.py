@@ -38,7 +38,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
 from .fasteners import AccessDesign
-from .welds import default_setback, default_throat, packing_side
+from .welds import packing_side
 
 if TYPE_CHECKING:
     from .job import Job
@@ -137,7 +137,7 @@ class Buildup:
             upper = shift - t_top - float(sw.rib_height)
             faces += [("bottom_upper", upper), ("bottom_lower", upper - t_bot)]
         sandwich = sw.buildup == "sandwich"
-        throat = float(welds.throat or default_throat(min(t_top, t_bot), sw.rib_thickness))
+        throat, setback = welds.sizes(min(t_top, t_bot), float(sw.rib_thickness))
         gap = float(welds.erection_gap) if sandwich else 0.0
         return cls(
             kind=sw.buildup,
@@ -158,13 +158,7 @@ class Buildup:
             ),
             welds=Welds(
                 throat=throat,
-                setback=(
-                    0.0
-                    if not sandwich
-                    else float(
-                        welds.setback if welds.setback is not None else default_setback(throat)
-                    )
-                ),
+                setback=setback if sandwich else 0.0,
                 snipe=float(welds.snipe) if sandwich else 0.0,
                 erection_gap=gap,
                 packing=packing_side(float(bolts.diameter), float(sw.rib_height)) if gap else 0.0,

@@ -366,6 +366,12 @@ class WeldSection(_Section):
     #: bolt by a square packing plate of this thickness ("0 mm": the ribs touch)
     erection_gap: NonNegativeLength = _default("0 mm")
 
+    def sizes(self, thinnest_sheet: float, rib: float) -> tuple[float, float]:
+        """(throat, setback) in mm: as written, or their defaults (:mod:`fabpanel.welds`)."""
+        throat = self.throat or default_throat(thinnest_sheet, rib)
+        setback = self.setback if self.setback is not None else default_setback(throat)
+        return float(throat), float(setback)
+
 
 class SandwichSection(_Section):
     """[sandwich]: the build-up of each panel."""
@@ -533,7 +539,7 @@ class SandwichSection(_Section):
     def _check_welds(self, w: _Written) -> None:
         welds, t_rib = self.welds, self.rib_thickness
         thinnest = min(self.sheet_thickness, self.bottom_thickness)
-        throat = welds.throat or default_throat(thinnest, t_rib)
+        throat, setback = welds.sizes(thinnest, t_rib)
         leg = throat * math.sqrt(2.0)
         if leg > thinnest + 1e-9:
             raise w.conflict(
@@ -545,7 +551,6 @@ class SandwichSection(_Section):
                 ),
                 f"use a throat of at most {math.floor(thinnest / math.sqrt(2.0) * 100) / 100:g} mm",
             )
-        setback = welds.setback if welds.setback is not None else default_setback(throat)
         if setback > t_rib - MIN_SHEET_BEARING:
             # the default set-back follows the throat: blame the throat when it was not given
             key = "welds.setback" if welds.setback is not None else "welds.throat"

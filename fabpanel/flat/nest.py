@@ -392,7 +392,7 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
             progress, placed_parts, len(items), total, f"{material} {thickness:g} mm"
         )
         stocks = cutting.stock_for(thickness)
-        layout, box_plates, stranded = _nest_on_stock(
+        layout, box_count, stranded = _nest_on_stock(
             items, job, stocks, cutting.nest_time, on_round
         )
         issues += [
@@ -405,7 +405,7 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
             )
             for it in stranded
         ]
-        boxes += box_plates
+        boxes += box_count
         placed_parts += len(items)
         stranded_ids = {it.part.id for it in stranded}
         area = sum(it.part.area for it in items if it.part.id not in stranded_ids)
@@ -441,7 +441,7 @@ def nest(flat: FlatParts, job: Job, progress: Progress | None = None) -> Nests:
                 "bought_kg": round(bought, 2),
                 "net_kg": round(area * kg_per_mm2, 2),
                 "plates_lower_bound": bound,
-                "bounding_box_plates": box_plates,
+                "bounding_box_plates": box_count,
                 "time_s": round(time.perf_counter() - group_start, 3),
             }
         )
