@@ -3,6 +3,8 @@ and the reach check on built panels (slots cut, every bolt reachable, blocked bo
 
 from __future__ import annotations
 
+import re
+
 import manifold3d as m3d
 import numpy as np
 import pytest
@@ -126,15 +128,35 @@ def test_slots_unroll_with_their_size(model):
     assert np.all(np.abs(sizes[:, 1] - length) < 1.5)
 
 
-def test_a_stiffener_over_the_corner_bolts_makes_them_unreachable_and_named(developed):
+def test_end_bolts_under_a_stiffener_move_past_it_on_both_ribs(developed):
+    """Stiffeners 90 mm from the corners stand over the end bolts' slots at the job's 60 mm:
+    the room probe finds the nearest end distance past the stiffener where slot and tool
+    clear every part, the same for both panels of the joint."""
     job = Job.from_dict({"sandwich": {"stiffener_offset": "90 mm"}})
     model = build(developed, job, jobs=1)
+    assert model.metrics["bolts_unreachable"] == 0
+    assert not [i for i in model.issues if i.code == "bolt-unreachable"]
+    assert model.metrics["max_bolt_coaxial_error_mm"] < 1e-6
+    stiffener = next(p for p in model.parts if p.kind == "stiffener")
+    for rib in (p for p in model.parts if p.kind == "rib" and p.holes):
+        along = np.sort([h.centre[0] for h in rib.holes]) - rib.outline[:, 0].min()
+        span = np.ptp(rib.outline[:, 0])
+        # past the stiffener (its offset and thickness) at both ends, and not far past it
+        for end in (along[0], span - along[-1]):
+            assert 90.0 + stiffener.thickness < end < 90.0 + 80.0
+
+
+def test_a_tool_too_large_for_the_panel_leaves_every_bolt_unreachable_and_named(developed):
+    job = Job.from_dict({"sandwich": {"bolts": {"tool_head_diameter": "160 mm"}}})
+    model = build(developed, job, jobs=1)
     blocked = [i for i in model.issues if i.code == "bolt-unreachable"]
-    assert blocked and all(i.severity == "error" for i in blocked)
-    assert all("STF" in i.message and "bolt" in i.message for i in blocked)
-    assert model.metrics["bolts_unreachable"] == len(model.metrics["bolts_unreachable_ids"]) > 0
-    # only the bolts next to the corners
-    assert model.metrics["bolts_unreachable"] < model.metrics["bolts_total"]
+    # every joint's bolt, reported by both of its panels
+    assert model.metrics["bolts_unreachable"] == model.metrics["bolts_total"] > 0
+    assert len(blocked) == 2 * model.metrics["bolts_total"]
+    assert all(i.severity == "error" for i in blocked)
+    # each names its rib, its bolt and why
+    assert all(re.match(r"P\d+-RIB-\d bolt \d+: .*(edge|hits)", i.message) for i in blocked)
+    assert model.metrics["bolts_unreachable"] == len(model.metrics["bolts_unreachable_ids"])
 
 
 def test_end_bolts_move_out_from_under_a_leaning_stiffener(tmp_path):
@@ -163,3 +185,22 @@ def test_end_bolts_move_out_from_under_a_leaning_stiffener(tmp_path):
     assert along[0] - rib.outline[:, 0].min() < 60.0 - 1.0
     assert rib.outline[:, 0].max() - along[-1] < 60.0 - 1.0
     assert span > 900.0
+
+
+def test_the_reach_is_the_farthest_the_sheet_stands_over_the_slot():
+    """A sheet sloping across the slot (z = 100 + 0.3 y, flat in x) stands farthest over the
+    slot's far edge: the tool's handle leaves the sheet there and swings wider, so the slot
+    is sized for that reach, not the one above the bolt."""
+    from fabpanel.model import occ
+    from fabpanel.model.openings import footprint_reaches
+
+    u, v = np.meshgrid(np.linspace(-300, 300, 7), np.linspace(-50, 400, 7), indexing="ij")
+    surface, _ = occ.bspline_surface(np.stack([u, v, 100 + 0.3 * v], axis=-1))
+    design = Job.from_dict({}).sandwich.access_design().at_reach(100.0)
+    frames = {0: np.eye(4)[None]}
+    reach = footprint_reaches(surface, frames, {0: [design]})[0][0]
+    far = design.slot[::3, 1].max()
+    assert reach == pytest.approx(100 + 0.3 * far, abs=1e-6)
+    # a sheet sloping the other way keeps the reach above the bolt at least
+    surface, _ = occ.bspline_surface(np.stack([u, v, 100 - 0.3 * v], axis=-1))
+    assert footprint_reaches(surface, frames, {0: [design]})[0][0] == pytest.approx(100.0)

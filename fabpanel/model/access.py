@@ -5,6 +5,7 @@ built panel (:func:`reach_findings`)."""
 from __future__ import annotations
 
 import itertools
+from dataclasses import dataclass
 
 import manifold3d as m3d
 import numpy as np
@@ -61,14 +62,6 @@ def tool_envelope(design: AccessDesign) -> m3d.Manifold:
     return m3d.Manifold.batch_boolean([insertion, onto, riding, *sweeps], m3d.OpType.Add)
 
 
-def slot_prism(design: AccessDesign, depth: float) -> m3d.Manifold:
-    """The slot extruded along z through the access sheet (``depth``: the sheet's thickness
-    and some), joint frame: what the slot takes out of the sheet."""
-    section = m3d.CrossSection([design.slot.tolist()])
-    start = design.reach - depth - 10.0
-    return section.extrude(depth + 20.0).translate((0.0, 0.0, start))
-
-
 def placed(solid: m3d.Manifold, frame: np.ndarray) -> m3d.Manifold:
     """A joint-frame solid moved to the world by ``frame`` (4, 4): columns x, y, z, origin."""
     return solid.transform(np.asarray(frame, dtype=float)[:3])
@@ -78,12 +71,24 @@ def placed(solid: m3d.Manifold, frame: np.ndarray) -> m3d.Manifold:
 REACH_OVERLAP = 1.0
 
 
-def opening_prism(outline: np.ndarray, frame: np.ndarray, reach: float, depth: float):
+def opening_prism(
+    outline: np.ndarray, frame: np.ndarray, reach: float, depth: float, margin: float = 10.0
+):
     """An opening's outline ``(n, 2)`` extruded along its frame's z through the access sheet
-    (``depth``: the sheet's thickness), 10 mm past both faces, in the world."""
+    (``depth``: the sheet's thickness), ``margin`` mm past both faces at the frame's reach, in
+    the world."""
     section = m3d.CrossSection([np.asarray(outline, dtype=float).tolist()])
-    prism = section.extrude(depth + 20.0).translate((0.0, 0.0, reach - depth - 10.0))
+    prism = section.extrude(depth + 2 * margin).translate((0.0, 0.0, reach - depth - margin))
     return placed(prism, frame)
+
+
+def cut_prism(opening: Opening, depth: float) -> m3d.Manifold:
+    """What an opening takes out of the sheet: its wall runs along z through the whole sheet,
+    which may stand farther from the frame's reach across a merged opening (a corner's two
+    slots in the first one's frame) on a curving sheet, so the prism runs as far again as the
+    opening is wide past both faces."""
+    margin = 10.0 + float(np.ptp(opening.outline, axis=0).max())
+    return opening_prism(opening.outline, opening.frame, opening.reach, depth, margin)
 
 
 def blocked_bolts(
@@ -132,48 +137,98 @@ def bolt_names(sheet: str, bolts: tuple[tuple[int, int], ...]) -> str:
     return " and ".join(names)
 
 
+@dataclass(frozen=True)
+class ReachScene:
+    """A built panel as the reach check sees it: each part as a solid (``solids``, the access
+    sheet with its openings taken out), the access sheet without them (``bare``, None without
+    one) and its openings with the prism each takes out of it."""
+
+    solids: dict[str, m3d.Manifold]
+    sheet_id: str | None
+    bare: m3d.Manifold | None
+    depth: float
+    openings: tuple[Opening, ...]
+    cuts: tuple[m3d.Manifold, ...]
+    #: every part but the sheets (what an opening must not run under)
+    plate_ids: tuple[str, ...]
+    #: bolts (side, index) without a slot -> why
+    missing: dict[tuple[int, int], str]
+
+    @property
+    def plates(self) -> dict[str, m3d.Manifold]:
+        return {k: self.solids[k] for k in self.plate_ids}
+
+    def sheet_without(self, bolt: tuple[int, int]) -> m3d.Manifold | None:
+        """The access sheet with every opening cut but ``bolt``'s (None without one)."""
+        if self.bare is None:
+            return None
+        sheet = self.bare
+        for opening, cut in zip(self.openings, self.cuts, strict=True):
+            if bolt not in opening.bolts:
+                sheet = sheet - cut
+        return sheet
+
+    def others(self) -> m3d.Manifold:
+        """Every part but the access sheet, as one solid."""
+        rest = [solid for k, solid in self.solids.items() if k != self.sheet_id]
+        return m3d.Manifold.batch_boolean(rest, m3d.OpType.Add)
+
+
+def reach_scene(parts: list[dict], sheet_id: str) -> ReachScene:
+    """The panel's ``parts`` as solids (:class:`ReachScene`), ``sheet_id`` the access sheet."""
+    sheet = next((p for p in parts if p["id"] == sheet_id), None)
+    openings: tuple[Opening, ...] = tuple(sheet["openings"]) if sheet else ()
+    depth = sheet["thickness"] if sheet else 0.0
+    cuts = tuple(cut_prism(o, depth) for o in openings)
+    solids = {p["id"]: part_solid(p["clash_shape"], p["id"]) for p in parts}
+    bare = None
+    if sheet is not None:
+        bare = solids[sheet["id"]]
+        for cut in cuts:
+            solids[sheet["id"]] = solids[sheet["id"]] - cut
+    plates = tuple(p["id"] for p in parts if not p["kind"].startswith("sheet"))
+    missing = dict(sheet["slot_missing"]) if sheet else {}
+    return ReachScene(
+        solids, sheet["id"] if sheet else None, bare, depth, openings, cuts, plates, missing
+    )
+
+
+def slot_clashes(pid: str, scene: ReachScene) -> tuple[list[Finding], list[tuple]]:
+    """Openings that run under a rib or a stiffener (``access-clash``, a warning: the plate
+    loses some of its seat on the sheet) and their bolts, as in :func:`reach_findings`."""
+    findings: list[Finding] = []
+    in_the_way: list[tuple[int, int, str, bool]] = []
+    for opening in scene.openings:
+        prism = opening_prism(opening.outline, opening.frame, opening.reach, scene.depth)
+        for part_id, solid in scene.plates.items():
+            shared = float((solid ^ prism).volume())
+            if shared > REACH_OVERLAP:
+                in_the_way += [(b[0], b[1], part_id, False) for b in opening.bolts]
+                findings.append(
+                    (
+                        "access-clash",
+                        scene.sheet_id or pid,
+                        (
+                            f"the access slot of {bolt_names(pid, opening.bolts)} runs "
+                            f"under {part_id} ({shared:.0f} mm3)"
+                        ),
+                    )
+                )
+    return findings, in_the_way
+
+
 def reach_findings(
     pid: str,
-    parts: list[dict],
+    scene: ReachScene,
     frames: dict[int, np.ndarray],
     designs: dict[int, list[AccessDesign]],
 ) -> tuple[list[Finding], list[tuple[int, int, str, bool]]]:
-    """Openings that run under a rib or a stiffener (``access-clash``, a warning as before: the
-    plate loses some of its seat on the sheet), and bolts the tool
-    cannot reach (``bolt-unreachable``, error): no slot was cut for them, or the tool's path
-    hits a part of the panel (:func:`fabpanel.model.access.blocked_bolts`). Also the bolts in
-    the way: ``(side, index, part id in the way or "", unreachable)``, for the build to move."""
-    in_the_way: list[tuple[int, int, str, bool]] = []
-    sheet = next((p for p in parts if p["kind"].startswith("sheet") and p["openings"]), None)
-    openings: list[Opening] = sheet["openings"] if sheet else []
-    cut = {bolt for o in openings for bolt in o.bolts}
-    prisms = [
-        (o, opening_prism(o.outline, o.frame, o.reach, sheet["thickness"] if sheet else 0.0))
-        for o in openings
-    ]
-    findings: list[Finding] = []
-    solids = {}
-    for part in parts:
-        solid = part_solid(part["clash_shape"], part["id"])
-        if part is sheet:
-            for _, prism in prisms:
-                solid = solid - prism
-        elif not part["kind"].startswith("sheet"):
-            for opening, prism in prisms:
-                shared = float((solid ^ prism).volume())
-                if shared > REACH_OVERLAP:
-                    in_the_way += [(b[0], b[1], part["id"], False) for b in opening.bolts]
-                    findings.append(
-                        (
-                            "access-clash",
-                            sheet["id"] if sheet else pid,
-                            (
-                                f"the access slot of {bolt_names(pid, opening.bolts)} runs "
-                                f"under {part['id']} ({shared:.0f} mm3)"
-                            ),
-                        )
-                    )
-        solids[part["id"]] = solid
+    """Openings that run under a plate (:func:`slot_clashes`), and bolts the tool cannot reach
+    (``bolt-unreachable``, error): no slot was cut for them, or the tool's path hits a part of
+    the panel (:func:`fabpanel.model.access.blocked_bolts`). Also the bolts in the way:
+    ``(side, index, part id in the way or "", unreachable)``, for the build to move."""
+    findings, in_the_way = slot_clashes(pid, scene)
+    cut = {bolt for o in scene.openings for bolt in o.bolts}
     for side, stack in frames.items():
         for i in range(len(stack)):
             if (side, i) not in cut:
@@ -182,11 +237,14 @@ def reach_findings(
                     (
                         "bolt-unreachable",
                         f"{pid}-RIB-{side}",
-                        f"{pid}-RIB-{side} bolt {i}: no access slot could be cut for it",
+                        (
+                            f"{pid}-RIB-{side} bolt {i}: no access slot could be cut for it: "
+                            f"{scene.missing.get((side, i), 'its sheet has none')}"
+                        ),
                         "error",
                     )
                 )
-    for side, i, part_id, shared in blocked_bolts(designs, frames, solids):
+    for side, i, part_id, shared in blocked_bolts(designs, frames, scene.solids):
         design = designs[side][i]
         if (side, i) not in cut:
             continue

@@ -37,7 +37,7 @@ from ..errors import Issue, KernelError
 from ..job import Job
 from ..parallel import worker_pool
 from ..tolerances import TOLERANCES
-from .bolt_moves import MOVE_ROUNDS, move_blocked_end_bolts
+from .bolt_moves import MOVE_ROUNDS, Rooms, move_blocked_end_bolts
 from .clash import find_clashes, part_solid
 from .panel import build_panel
 from .records import Failure, PanelPayload, PanelResult
@@ -91,8 +91,9 @@ def build(
     _run_payloads(payloads, list(range(m)), results, workers, developed, progress)
     if buildup.access is not None:
         # end bolts the tool cannot reach are moved along their joint, both panels rebuilt
+        rooms: Rooms = {}
         for _ in range(MOVE_ROUNDS):
-            moved = move_blocked_end_bolts(developed, payloads, results, buildup)
+            moved = move_blocked_end_bolts(developed, payloads, results, buildup, rooms)
             if not moved:
                 break
             _run_payloads(payloads, sorted(moved), results, workers, developed, None)

@@ -25,6 +25,8 @@ from . import occ
 MIN_WEB = 10.0
 #: points of a merged outline about this far apart, mm
 OUTLINE_STEP = 2.0
+#: every this many slot outline points are checked for the farthest reach
+FOOTPRINT_STRIDE = 3
 
 
 @dataclass(frozen=True)
@@ -44,10 +46,10 @@ class Opening:
 
 
 def slot_openings(
-    designs: dict[int, list[AccessDesign]], frames: dict[int, np.ndarray]
+    designs: dict[int, list[AccessDesign]], frames: dict[int, np.ndarray], depth: float
 ) -> list[Opening]:
     """The openings for the bolts whose joint frames are ``frames`` (side -> (n, 4, 4)), each
-    bolt's slot from its own design (its reach)."""
+    bolt's slot from its own design (its reach), in a sheet ``depth`` mm thick."""
     openings = [
         Opening(frame, designs[side][i].slot, ((side, i),), designs[side][i].reach)
         for side, stack in sorted(frames.items())
@@ -58,7 +60,7 @@ def slot_openings(
         merged = False
         for a in range(len(openings)):
             for b in range(a + 1, len(openings)):
-                joined = _joined(openings[a], openings[b])
+                joined = _joined(openings[a], openings[b], depth)
                 if joined is not None:
                     openings[a] = joined
                     del openings[b]
@@ -78,12 +80,15 @@ def _in_frame(opening: Opening, frame: np.ndarray, level: float) -> np.ndarray:
     return (world @ np.linalg.inv(frame).T)[:, :2]
 
 
-def _joined(first: Opening, second: Opening) -> Opening | None:
+def _joined(first: Opening, second: Opening, depth: float) -> Opening | None:
     """Both openings as one in ``first``'s frame when they come within ``MIN_WEB``."""
     if np.linalg.norm(first.frame[:3, 3] - second.frame[:3, 3]) > 4 * np.ptp(first.outline).max():
         return None
     mine = Polygon(first.outline)
-    theirs = Polygon(_in_frame(second, first.frame, second.reach))
+    # the second tool comes in along its own z: its slot on both faces of the sheet
+    theirs = shapely.union_all(
+        [Polygon(_in_frame(second, first.frame, second.reach - dz)) for dz in (0.0, depth)]
+    ).convex_hull
     if mine.distance(theirs) >= MIN_WEB:
         return None
     union = shapely.union(mine, theirs).buffer(SLOT_CORNER).buffer(-SLOT_CORNER)
@@ -97,19 +102,25 @@ def _joined(first: Opening, second: Opening) -> Opening | None:
     )
 
 
-def opening_loops(surface, openings: list[Opening]) -> list[np.ndarray | str]:
-    """Where each opening's wall (its outline moved along the frame's z) meets a surface, as a
-    closed loop of surface parameters, or why there is none (2D Newton per point:
-    the surface point whose (x, y) in the frame is the outline point; it fails where the
-    surface curves strongly under the opening); each starts at its reach along z."""
-    if not openings:
-        return []
+def _stacked(openings: list[Opening]) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[int]]:
+    """Every opening's outline points ``(n, 2)``, the frame of each ``(n, 4, 4)``, the point
+    on the line through each opening's centre at its reach ``(m, 3)`` and the counts."""
     counts = [len(o.outline) for o in openings]
     frames = np.repeat(np.array([o.frame for o in openings]), counts, axis=0)
     goal = np.concatenate([o.outline for o in openings])
-    e1, e2, origin = frames[:, :3, 0], frames[:, :3, 1], frames[:, :3, 3]
-    # Newton from the projection of each opening's centre (one projection per opening)
     centres = np.array([o.frame[:3, 3] + o.reach * o.frame[:3, 2] for o in openings])
+    return goal, frames, centres, counts
+
+
+def _walls_on_surface(
+    surface, openings: list[Opening]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[int]]:
+    """Where the lines along each frame's z through the openings' outline points meet
+    ``surface``: ``(n, 2)`` surface parameters, ``(n,)`` found and ``(n,)`` within the
+    surface's domain, and the points per opening. 2D Newton per point (the surface point whose
+    (x, y) in the frame is the outline point), from the projection of its opening's centre."""
+    goal, frames, centres, counts = _stacked(openings)
+    e1, e2, origin = frames[:, :3, 0], frames[:, :3, 1], frames[:, :3, 3]
     uv = np.repeat(occ.project_to_surface(surface, centres), counts, axis=0)
     f = np.full_like(goal, np.inf)
     for _ in range(30):
@@ -127,8 +138,18 @@ def opening_loops(surface, openings: list[Opening]) -> list[np.ndarray | str]:
         )
         step = np.linalg.solve(jac + 1e-12 * np.eye(2), f[..., None])[..., 0]
         uv = np.where(np.isfinite(step), uv - step, uv)
-    found = np.isfinite(f).all(axis=1) & (np.abs(f).max(axis=1, initial=0.0) < 1e-6)
-    inside = ((uv > -1e-9) & (uv < 1 + 1e-9)).all(axis=1)
+    found = np.asarray(np.isfinite(f).all(axis=1) & (np.abs(f).max(axis=1, initial=0.0) < 1e-6))
+    inside = np.asarray(((uv > -1e-9) & (uv < 1 + 1e-9)).all(axis=1))
+    return uv, found, inside, counts
+
+
+def opening_loops(surface, openings: list[Opening]) -> list[np.ndarray | str]:
+    """Where each opening's wall (its outline moved along the frame's z) meets a surface, as a
+    closed loop of surface parameters, or why there is none (the opening leaves the sheet, or
+    the surface curves so strongly under it that its outline was not found)."""
+    if not openings:
+        return []
+    uv, found, inside, counts = _walls_on_surface(surface, openings)
     ok = found & inside
     loops: list[np.ndarray | str] = []
     cuts = np.cumsum(counts)[:-1]
@@ -142,6 +163,35 @@ def opening_loops(surface, openings: list[Opening]) -> list[np.ndarray | str]:
         else:
             loops.append("its outline on the sheet was not found (the sheet curves too much there)")
     return loops
+
+
+def footprint_reaches(
+    surface, frames: dict[int, np.ndarray], designs: dict[int, list[AccessDesign]]
+) -> dict[int, np.ndarray]:
+    """Side -> (n,) float: the farthest ``surface`` (the access sheet's outer face) stands
+    along each bolt's frame z over the outline of its slot, at least the design's reach, mm.
+    On a sheet curving away under the slot the tool's handle leaves the sheet farther out and
+    swings wider there than at the bolt's own reach (outline points every ``FOOTPRINT_STRIDE``
+    and points not found are left out)."""
+    keys = [(side, i) for side, stack in sorted(frames.items()) for i in range(len(stack))]
+    if not keys:
+        return {side: np.zeros(0) for side in frames}
+    openings = [
+        Opening(frames[s][i], designs[s][i].slot[::FOOTPRINT_STRIDE], (), designs[s][i].reach)
+        for s, i in keys
+    ]
+    try:
+        uv, found, _, counts = _walls_on_surface(surface, openings)
+    except KernelError:  # a degenerate panel: its sheet build will say what is wrong
+        return {side: np.array([d.reach for d in designs[side]]) for side in frames}
+    points = occ.surface_points(surface, uv[:, 0], uv[:, 1])
+    _, stacked, _, _ = _stacked(openings)
+    along = np.einsum("nd,nd->n", points - stacked[:, :3, 3], stacked[:, :3, 2])
+    along = np.where(found, along, -np.inf)
+    out = {side: np.array([d.reach for d in designs[side]]) for side in frames}
+    for (side, i), chunk in zip(keys, np.split(along, np.cumsum(counts)[:-1]), strict=True):
+        out[side][i] = max(out[side][i], float(chunk.max()))
+    return out
 
 
 def reaches_along_z(surface, frames: dict[int, np.ndarray], guess: float) -> dict[int, np.ndarray]:

@@ -39,8 +39,15 @@ import numpy as np
 from ..errors import Finding, KernelError
 from ..fasteners import AccessDesign
 from . import joints, occ
-from .access import bolt_names, reach_findings
-from .openings import Opening, opening_loops, reaches_along_z, slot_openings
+from .access import ReachScene, reach_findings, reach_scene
+from .bolt_room import end_bolt_room, rooms_of
+from .openings import (
+    Opening,
+    footprint_reaches,
+    opening_loops,
+    reaches_along_z,
+    slot_openings,
+)
 from .plates import packing_plate, rib, stiffener
 from .records import PanelPayload, PanelResult
 from .trim import TrimmedFace, side_curve, side_rows, trimmed_face
@@ -154,6 +161,10 @@ def build_panel(payload: PanelPayload, where: list[str] | None = None) -> PanelR
         outside = sheets["top_outer"] if access == "top" else sheets["bottom_lower"]
         reaches = reaches_along_z(outside.surface, frames, design.reach)
         designs = {side: [design.at_reach(r) for r in reach] for side, reach in reaches.items()}
+        # twice: a wider slot (a farther reach) may run farther up a curving sheet
+        for _ in range(2):
+            reaches = footprint_reaches(outside.surface, frames, designs)
+            designs = {s: [design.at_reach(r) for r in reach] for s, reach in reaches.items()}
     building(f"{pid}-TOP")
     k = payload.samples.shape[0]
     parts = [
@@ -192,14 +203,26 @@ def build_panel(payload: PanelPayload, where: list[str] | None = None) -> PanelR
         building(pid)
         findings += _clearance_findings(pid, parts, bolts, bu.bolts.diameter)
         if design is not None:
-            found, blocked = reach_findings(pid, parts, frames, designs)
+            scene = reach_scene(parts, f"{pid}-{'TOP' if access == 'top' else 'BOT'}")
+            found, blocked = reach_findings(pid, scene, frames, designs)
             findings += found
             measures["bolts_in_the_way"] = blocked
-    findings += [
-        ("access-clash", part["id"], message)
-        for part in parts
-        for message in part.get("dropped", ())
-    ]
+            access_faces = (
+                (sheets["top_outer"], sheets["top_inner"])
+                if access == "top"
+                else (sheets["bottom_upper"], sheets["bottom_lower"])
+            )
+            measures["end_bolt_room"] = _end_bolt_rooms(
+                payload,
+                faces.planes,
+                rib_shift,
+                bolts,
+                blocked,
+                design,
+                access,
+                access_faces,
+                scene,
+            )
     measures.update(faces.measures())
     measures["bolts"] = int(sum(len(b) for b in bolts.values()))
     measures["access_openings"] = int(
@@ -229,21 +252,77 @@ def _bolt_centres(
 ) -> dict[int, np.ndarray]:
     """Side -> (n, 3) float: the bolt centres of each interior side, on its contact plane at
     mid-height of the ribs."""
-    bu = payload.buildup
-    mid = (bu.offset("top_inner") + bu.offset("bottom_upper")) / 2
     bolts = {}
     for side in np.flatnonzero(payload.interior):
         building(f"{payload.panel_id}-RIB-{side}")
-        bolts[int(side)] = joints.bolt_centres(
-            side_rows(payload.samples)[side],
-            side_rows(payload.normals)[side],
-            planes[side],
-            mid,
-            bu.bolts.spacing,
-            bu.bolts.edge_distance,
-            payload.stations_of(int(side)),
-        )
+        bolts[int(side)] = _centres_at(payload, planes, int(side), payload.stations_of(int(side)))
     return bolts
+
+
+def _centres_at(
+    payload: PanelPayload, planes: np.ndarray, side: int, stations: np.ndarray | None
+) -> np.ndarray:
+    """(n, 3) float: bolt centres on ``side``'s contact plane at mid-height of the ribs, at
+    the arc lengths ``stations`` (None: the job's spacing and edge distance)."""
+    bu = payload.buildup
+    mid = (bu.offset("top_inner") + bu.offset("bottom_upper")) / 2
+    return joints.bolt_centres(
+        side_rows(payload.samples)[side],
+        side_rows(payload.normals)[side],
+        planes[side],
+        mid,
+        bu.bolts.spacing,
+        bu.bolts.edge_distance,
+        stations,
+    )
+
+
+def _end_bolt_rooms(
+    payload: PanelPayload,
+    planes: np.ndarray,
+    rib_shift: np.ndarray,
+    bolts: dict[int, np.ndarray],
+    blocked: list[tuple[int, int, str, bool]],
+    design: AccessDesign,
+    access: str,
+    access_faces: tuple[TrimmedFace, TrimmedFace],
+    scene: ReachScene,
+) -> dict[tuple[int, int], tuple[int, ...]]:
+    """(side, end) -> where the end bolts in the way could be reached
+    (:mod:`fabpanel.model.bolt_room`), for the build to move them."""
+    wanted = sorted(
+        {
+            (side, 0 if i == 0 else 1, i)
+            for side, i, _, _ in blocked
+            if len(bolts.get(side, ())) >= 2 and i in (0, len(bolts[side]) - 1)
+        }
+    )
+    if not wanted:
+        return {}
+    rib_planes = moved_in(planes, rib_shift)
+    outside = access_faces[1] if access == "bottom" else access_faces[0]
+
+    def frames_at(side: int, stations: np.ndarray) -> np.ndarray:
+        centres = _centres_at(payload, planes, side, stations) + rib_shift[side] * planes[side, :3]
+        return _joint_frames(payload.samples, payload.normals, rib_planes, {side: centres}, access)[
+            side
+        ]
+
+    def probe(bolt: tuple[int, int], frames: np.ndarray) -> np.ndarray:
+        return end_bolt_room(
+            bolt,
+            frames,
+            design,
+            (access_faces[0].surface, access_faces[1].surface),
+            outside.surface,
+            scene,
+        )
+
+    lengths = {
+        side: float(np.linalg.norm(np.diff(side_rows(payload.samples)[side], axis=0), axis=1).sum())
+        for side, _, _ in wanted
+    }
+    return rooms_of(wanted, lengths, 1.2 * design.bolt.hole, frames_at, probe)
 
 
 def _plates(
@@ -463,15 +542,16 @@ def _sheet(
     surface_grid = (1 - depth) * grid_a + depth * grid_b
     mid_area = _grid_area((grid_a + grid_b) / 2)
     kept: list[tuple[Opening, np.ndarray, np.ndarray]] = []
-    dropped: list[str] = []
+    # bolts without a slot -> why (reported by the reach check as unreachable)
+    missing: dict[tuple[int, int], str] = {}
     if designs and frames:
-        openings = slot_openings(designs, frames)
+        openings = slot_openings(designs, frames, thickness)
         loops_a = opening_loops(outer.surface, openings)
         loops_b = opening_loops(inner.surface, openings)
         for opening, a, b in zip(openings, loops_a, loops_b, strict=True):
             if isinstance(a, str) or isinstance(b, str):
-                why = a if isinstance(a, str) else b
-                dropped.append(f"access slot of {bolt_names(name, opening.bolts)} left out: {why}")
+                why = a if isinstance(a, str) else str(b)
+                missing.update(dict.fromkeys(opening.bolts, why))
             else:
                 kept.append((opening, a, b))
     try:
@@ -479,13 +559,14 @@ def _sheet(
     except KernelError as err:
         if not kept:
             raise
-        dropped.append(f"access slots left out: the sheet with them was not valid ({err})")
+        why = f"the sheet with its slots was not valid ({err})"
+        missing.update(dict.fromkeys((b for o, _, _ in kept for b in o.bolts), why))
         solid = occ.slab(outer.surface, inner.surface, name)
         kept = []
     opening_area = sum(o.area for o, _, _ in kept)
     cavity = 1 if kind == "sheet-top" else 0
     return {
-        "dropped": dropped,
+        "slot_missing": missing,
         "id": name,
         "kind": kind,
         "thickness": thickness,
