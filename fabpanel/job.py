@@ -64,6 +64,7 @@ Pressure = Annotated[float, *_quantity("pressure"), Field(ge=0)]
 Stress = Annotated[float, *_quantity("stress"), Field(gt=0)]
 Density = Annotated[float, *_quantity("density"), Field(gt=0)]
 Duration = Annotated[float, *_quantity("time"), Field(ge=0)]
+Velocity = Annotated[float, *_quantity("velocity"), Field(gt=0)]
 
 Stage = Literal["panelize", "develop", "build", "cut", "structure"]
 #: pipeline stages in order; ``--until`` takes one of these
@@ -747,10 +748,50 @@ class CuttingSection(_Section):
 
 
 class LoadsSection(_Section):
-    """[loads]: actions and checks for the structural summary."""
+    """[loads]: actions, combinations and limits of the structural check.
+
+    ``code = "en1991"`` (default): snow by EN 1991-1-3 (``snow_ground`` s_k, ``snow_exposure``
+    C_e, ``snow_thermal`` C_t, mu_1 by the local pitch, half-span cases), wind by EN 1991-1-4
+    (``wind_speed`` v_b,0, ``terrain``, the height of the shell above ground, c_pe by the
+    local pitch, ``internal_pressure`` under the shell, ``wind_directions``), combined by
+    EN 1990 (6.10) with ``gamma_g_sup``/``gamma_g_inf``, ``gamma_q`` and the psi_0 factors.
+    ``code = "thesis"``: the thesis's §7.3 (``snow`` on the plan, ``wind`` projected along
+    ``wind_direction``), combined as ``gamma_g G + gamma_q Q``. The national annex's values go
+    in the same keys.
+    """
 
     _table = "loads"
 
+    code: Literal["en1991", "thesis"] = "en1991"
+    # ---- EN 1991-1-3 (snow) -----------------------------------------------------------------
+    #: characteristic ground snow load s_k (national map; 0.7 kN/m2: the Netherlands)
+    snow_ground: Pressure = _default("0.7 kN/m2", "pressure")
+    #: C_e (Table 5.1: windswept 0.8, normal 1.0, sheltered 1.2) and C_t
+    snow_exposure: float = Field(default=1.0, gt=0)
+    snow_thermal: float = Field(default=1.0, gt=0)
+    #: snow guards or parapets keep the snow from sliding: mu_1 >= 0.8 at every pitch
+    snow_fenced: bool = False
+    # ---- EN 1991-1-4 (wind) -----------------------------------------------------------------
+    #: fundamental value of the basic wind velocity v_b,0 (national map)
+    wind_speed: Velocity = _default("25 m/s", "velocity")
+    #: terrain category (Table 4.1): 0, I, II, III or IV
+    terrain: Literal["0", "I", "II", "III", "IV"] = "II"
+    #: height of the shell's lowest point above the ground; the reference height is the top
+    base_height: NonNegativeLength = _default("0 m")
+    #: directional and season factors c_dir, c_season (4.1)
+    wind_factor: float = Field(default=1.0, gt=0)
+    #: wind directions, degrees from +x towards +y; default: along and across the plan's
+    #: principal axes, both ways
+    wind_directions: tuple[float, ...] | None = None
+    #: internal pressure coefficients under the shell (the more onerous of +0.2 and -0.3,
+    #: §7.2.9(6) Note 2)
+    internal_pressure: tuple[float, float] = (0.2, -0.3)
+    # ---- EN 1990 ----------------------------------------------------------------------------
+    gamma_g_sup: float = Field(default=1.35, gt=0)
+    gamma_g_inf: float = Field(default=1.0, ge=0)
+    psi0_snow: float = Field(default=0.5, ge=0, le=1)
+    psi0_wind: float = Field(default=0.6, ge=0, le=1)
+    # ---- thesis §7.3 --------------------------------------------------------------------------
     snow: Pressure = _default("0.56 kN/m2", "pressure")
     wind: Pressure = _default("0.8 kN/m2", "pressure")
     #: horizontal wind direction (x, y), any length but not (0, 0); both signs are checked
@@ -760,6 +801,7 @@ class LoadsSection(_Section):
     #: about a quarter more CalculiX time)
     wind_opposite: bool = False
     gamma_g: float = Field(default=1.2, gt=0)
+    # ---- both ---------------------------------------------------------------------------------
     gamma_q: float = Field(default=1.5, gt=0)
     #: knock-down on the linear buckling factor (1/6: a factor of 6 is required)
     buckling_knockdown: float = Field(default=1 / 6, gt=0, le=1)

@@ -24,6 +24,8 @@ UNITS: dict[str, dict[str, float]] = {
     "density": {"kg/m3": 1e-9, "t/m3": 1e-6, "kg/mm3": 1.0},
     # internal: second
     "time": {"s": 1.0, "min": 60.0},
+    # internal: metre per second (wind speeds are given so in every code and map)
+    "velocity": {"m/s": 1.0, "km/h": 1.0 / 3.6},
 }
 
 #: unit of each dimension used when writing quantities back (manifest, job as run)
@@ -33,6 +35,7 @@ INTERNAL_UNIT = {
     "stress": "MPa",
     "density": "kg/mm3",
     "time": "s",
+    "velocity": "m/s",
 }
 
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"

@@ -289,11 +289,38 @@ def vault_structure(tmp_path_factory):
     # wind across the vault (the example's blows along its axis and meets only the rims)
     job = job.replace(
         structure={"element_size": "1.3 m"},
-        loads={"wind_direction": [0.0, 1.0], "wind_opposite": True},
+        loads={"code": "thesis", "wind_direction": [0.0, 1.0], "wind_opposite": True},
     )
     result = fp.run(job, until="build", write=False, jobs=2)
     folder = tmp_path_factory.mktemp("vault-structure")
     return result, analyse(result.model, job, folder=folder), folder
+
+
+@needs_ccx
+def test_barrel_vault_by_en1991_every_case_balances_and_each_action_leads(vault_structure):
+    """The same built vault under the EN 1991 cases: reactions equal the applied load in
+    every case, the snow is mu_1 C_e C_t s_k on the plan where the vault is flatter than 30
+    degrees and nothing beyond 60, and the wind's uplift exceeds its downward case."""
+    result, _, folder = vault_structure
+    job = fp.Job.from_toml(DEMO / "barrel-vault.toml").replace(
+        structure={"element_size": "1.3 m"}, loads={"snow_ground": "1 kN/m2"}
+    )
+    s = analyse(result.model, job, folder=folder / "en1991").summary
+    cases = s["load_cases"]
+    assert {"G", "S", "S1", "S2", "S3", "S4"} <= set(cases)
+    winds = [n for n in cases if n.startswith("W")]
+    assert len(winds) == 8
+    for name, case in cases.items():
+        assert case["ok"] and case["error"] < 1e-3, (name, case)
+    # a half cylinder of radius 4 m, 12 m long: mu_1 = 0.8 on |x| <= 2 m (pitch <= 30 deg),
+    # falling to 0 at 60 deg (|x| = 3.46 m): 0.8 x 12 m x (4 m + 2 x 0.73 m) of plan (about)
+    snow = -cases["S"]["applied_N"][2] / 1e3
+    assert 0.8 * 12 * 4.0 < snow < 0.8 * 12 * 6.0
+    assert all(-cases[f"S{k}"]["applied_N"][2] / 1e3 < snow for k in range(1, 5))
+    ups = [cases[n]["applied_N"][2] for n in winds if n.endswith("up")]
+    assert all(f > 0 for f in ups)  # suction lifts the roof
+    uls = s["combinations"]["ULS"]
+    assert "1.35G+1.5S+0.9" + winds[0] in uls and "1.0G+1.5" + winds[0] in uls
 
 
 @needs_ccx

@@ -8,7 +8,8 @@ patches (:func:`patch_model`), which is how the solver is validated against the 
 benchmarks in ``tests/test_structure.py``.
 """
 
-from .analysis import Structure, analyse, choose_divisions, load_cases, shell_of
+from .analysis import Structure, analyse, choose_divisions, shell_of
+from .cases import load_cases
 from .ccx import CcxMissing, LoadCase, find_ccx, read_dat, read_frd, run_ccx, write_deck
 from .loads import area_forces, edge_forces, gravity_forces, wind_exposed
 from .mesh import Material, ShellGroup, ShellModel, patch_model, sandwich_model

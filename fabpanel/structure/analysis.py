@@ -27,9 +27,13 @@ import numpy as np
 
 from ..errors import FabpanelError, Issue
 from . import ccx
+from .cases import load_cases
 from .checks import (
     check_supports,
     combinations,
+    combined_displacement,
+    combined_von_mises,
+    en1990_combinations,
     layout_boundary_loops,
     lowest_nodes,
     membrane_compression,
@@ -38,9 +42,8 @@ from .checks import (
     relative_error,
     rib_nodes_of_sides,
     span_of,
-    von_mises,
 )
-from .loads import GRAVITY, area_forces, gravity_forces, wind_exposed
+from .loads import gravity_forces
 from .mesh import ShellModel, built_share, sandwich_model, sandwich_settings
 
 log = logging.getLogger(__name__)
@@ -175,45 +178,6 @@ def _sheet_edge_nodes(shell, developed, sides, n) -> np.ndarray:
     return np.unique(idx[d < 0.5 * float(np.ptp(shell.nodes, axis=0).max()) / max(n, 1)])
 
 
-def load_cases(shell: ShellModel, job) -> tuple[list[ccx.LoadCase], dict]:
-    """Characteristic cases: ``G`` (self-weight, lumped stiffener masses included), ``S``
-    (snow on the horizontal projection of the top sheet), ``W`` (wind along
-    ``wind_direction`` on the top-sheet faces it meets first; with ``wind_opposite`` ``W1``
-    and ``W2``, along and against it). Each wind case is combined in both signs."""
-    loads = job.loads
-    top = shell.group == 0
-    cases = [ccx.LoadCase("G", gravity=np.array([0.0, 0.0, -GRAVITY]))]
-    info = {"G": "self-weight (g = 9.81 m/s2)"}
-    if loads.snow > 0:
-        cases.append(
-            ccx.LoadCase(
-                "S", forces=area_forces(shell, loads.snow, (0, 0, -1), top, projected=True)
-            )
-        )
-        info["S"] = f"snow {loads.snow * 1e3:g} kN/m2 on the horizontal projection"
-    if loads.wind > 0:
-        d = np.r_[np.asarray(loads.wind_direction, float), 0.0]
-        if np.linalg.norm(d) == 0:
-            from ..errors import InputError
-
-            raise InputError("[loads] wind_direction must not be (0, 0)")
-        d /= np.linalg.norm(d)
-        directions = (("W1", 1.0), ("W2", -1.0)) if loads.wind_opposite else (("W", 1.0),)
-        for name, sign in directions:
-            exposed = wind_exposed(shell, top, sign * d)
-            cases.append(
-                ccx.LoadCase(
-                    name, forces=area_forces(shell, loads.wind, sign * d, exposed, projected=True)
-                )
-            )
-            info[name] = (
-                f"wind {loads.wind * 1e3:g} kN/m2 blowing along ({sign * d[0]:+.2f}, "
-                f"{sign * d[1]:+.2f}), projected, on {int(exposed.sum())} exposed "
-                f"top-sheet elements; combined as pressure (+) and suction (-)"
-            )
-    return cases, info
-
-
 # --------------------------------------------------------------------------------------------
 # the stage
 # --------------------------------------------------------------------------------------------
@@ -265,9 +229,8 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
     developed = model.developed
     panel_ids = tuple(developed.panel_ids)
     shell = shell_of(model, job)
-    cases, case_info = load_cases(shell, job)
+    cases, case_info, issues = load_cases(shell, job)
     names = [c.name for c in cases]
-    issues: list[Issue] = []
 
     # ---- static cases ----------------------------------------------------------------------
     deck = ccx.write_deck(shell, folder / "static.inp", cases, title="fabpanel static cases")
@@ -327,7 +290,8 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
         reaction = dat.forces[c] - applied[supp].sum(axis=0)
         error = relative_error(-reaction, total)
         reactions[case.name] = {
-            "description": case_info[case.name],
+            "description": case_info[case.name].description,
+            "action": case_info[case.name].action,
             "applied_N": _r(total, 2),
             "reaction_N": _r(reaction, 2),
             "on_support_nodes_N": _r(applied[supp].sum(axis=0), 2),
@@ -354,21 +318,18 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
         )
 
     # ---- combinations ----------------------------------------------------------------------
-    combos = combinations(names, loads.gamma_g, loads.gamma_q)
+    combos = (
+        combinations(names, loads.gamma_g, loads.gamma_q)
+        if loads.code == "thesis"
+        else en1990_combinations(names, loads)
+    )
     uls = [c for c in combos if c.kind == "ULS"]
     sls = [c for c in combos if c.kind == "SLS"]
     f_uls = np.stack([c.factors for c in uls])
     f_sls = np.stack([c.factors for c in sls])
-    vm = np.concatenate(
-        [
-            von_mises(np.einsum("kc,cesj->kesj", f_uls, s_bot)),
-            von_mises(np.einsum("kc,cesj->kesj", f_uls, s_top)),
-        ],
-        axis=2,
-    )
-    vm_el = vm.max(axis=2)  # (K, E)
+    vm_el = combined_von_mises(f_uls, s_bot, s_top)  # (K, E)
     fy = shell.material.fy
-    disp_sls = np.linalg.norm(np.einsum("kc,ceaj->keaj", f_sls, u_el), axis=-1)  # (K, E, 8)
+    disp_sls = combined_displacement(f_sls, u_el)  # (K, E, 8)
     k_u, e_u = np.unravel_index(np.argmax(vm_el), vm_el.shape)
     k_d, e_d, a_d = np.unravel_index(np.argmax(disp_sls), disp_sls.shape)
     span = st.span or span_of(shell.nodes, shell.supports)

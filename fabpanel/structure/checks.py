@@ -151,9 +151,86 @@ def combinations(cases: list[str], gamma_g: float, gamma_q: float) -> list[Combi
     return out
 
 
+def en1990_combinations(cases: list[str], loads) -> list[Combination]:
+    """EN 1990 (6.10) ULS and (6.14b) characteristic SLS combinations of the characteristic
+    cases ``G`` (first), snow ``S...`` and wind ``W...`` (each a pattern of its action: one of
+    them at a time). Each variable action leads in turn (``gamma_q`` Q), the other accompanies
+    it (``gamma_q psi_0`` Q) or is absent; G is taken at ``gamma_g_sup`` and, where it may be
+    favourable (uplift), at ``gamma_g_inf`` too. SLS: G + Q_lead + psi_0 Q_other."""
+    names = list(cases)
+    actions = {
+        "snow": ([c for c in names if c.startswith("S")], loads.psi0_snow),
+        "wind": ([c for c in names if c.startswith("W")], loads.psi0_wind),
+    }
+    # (leading case, accompanying case or None, accompanying psi_0)
+    terms: list[tuple[str | None, str | None, float]] = [(None, None, 0.0)]
+    for lead_action, (leads, _) in actions.items():
+        for other_action, (others, psi) in actions.items():
+            if other_action == lead_action:
+                continue
+            for first in leads:
+                terms += [(first, other, psi) for other in [None, *others]]
+    g_factors = sorted({loads.gamma_g_sup, loads.gamma_g_inf}, reverse=True)
+    out = []
+    for kind, gammas, gq in (("ULS", g_factors, loads.gamma_q), ("SLS", [1.0], 1.0)):
+        for gg in gammas:
+            for lead, other, psi in terms:
+                factors = np.zeros(len(names))
+                factors[names.index("G")] = gg
+                label = "G" if kind == "SLS" else "1.0G" if gg == 1 else f"{gg:g}G"
+                for term, factor in ((lead, gq), (other, gq * psi)):
+                    if term is None or factor == 0:
+                        continue
+                    factors[names.index(term)] = factor
+                    label += f"+{factor:g}{term}" if factor != 1 else f"+{term}"
+                out.append(Combination(label, kind, factors))
+    return _unique(out)
+
+
+def _unique(combos: list[Combination]) -> list[Combination]:
+    """The combinations without repeats (same kind and factors), in order."""
+    seen: set[tuple] = set()
+    out = []
+    for combo in combos:
+        key = (combo.kind, tuple(np.round(combo.factors, 12)))
+        if key not in seen:
+            seen.add(key)
+            out.append(combo)
+    return out
+
+
 # --------------------------------------------------------------------------------------------
 # stresses
 # --------------------------------------------------------------------------------------------
+#: combinations evaluated at once (bounds the memory of the (K, E, 8, 6) stress stack)
+COMBINATION_CHUNK = 16
+
+
+def combined_von_mises(factors: np.ndarray, *faces: np.ndarray) -> np.ndarray:
+    """(K, E) float: each element's largest von Mises stress over its nodes on ``faces``
+    (each (C, E, 8, 6), the cases' stresses) under each combination's ``factors (K, C)``,
+    evaluated a few combinations at a time."""
+    out = np.empty((len(factors), faces[0].shape[1]))
+    for start in range(0, len(factors), COMBINATION_CHUNK):
+        chunk = factors[start : start + COMBINATION_CHUNK]
+        out[start : start + len(chunk)] = np.max(
+            [von_mises(np.einsum("kc,cesj->kesj", chunk, f)).max(axis=2) for f in faces], axis=0
+        )
+    return out
+
+
+def combined_displacement(factors: np.ndarray, u_el: np.ndarray) -> np.ndarray:
+    """(K, E, a) float: the displacement's length at each element node ``u_el (C, E, a, 3)``
+    under each combination, a few at a time."""
+    out = np.empty((len(factors), *u_el.shape[1:3]))
+    for start in range(0, len(factors), COMBINATION_CHUNK):
+        chunk = factors[start : start + COMBINATION_CHUNK]
+        out[start : start + len(chunk)] = np.linalg.norm(
+            np.einsum("kc,ceaj->keaj", chunk, u_el), axis=-1
+        )
+    return out
+
+
 def von_mises(stress: np.ndarray) -> np.ndarray:
     """Von Mises stress of ``(..., 6)`` components in .frd order (xx, yy, zz, xy, yz, zx)."""
     sxx, syy, szz, sxy, syz, szx = np.moveaxis(stress, -1, 0)

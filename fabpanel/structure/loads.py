@@ -149,6 +149,25 @@ def area_forces(
     return forces
 
 
+def normal_forces(
+    model: ShellModel, pressure: np.ndarray, elements: np.ndarray | None = None
+) -> np.ndarray:
+    """(n, 3) float: consistent nodal forces of a pressure acting along each element's normal,
+    N: ``pressure (E,)`` N/mm2, positive towards the surface (against its normal, which points
+    out of the shell: up on a roof), as wind pressure is signed."""
+    mask = np.ones(model.n_elements, bool) if elements is None else np.asarray(elements, bool)
+    pressure = np.broadcast_to(np.asarray(pressure, float), (model.n_elements,))
+    forces = np.zeros((len(model.nodes), 3))
+    start = 0
+    for conn, shape, area, normal in integration_points(model):
+        sl = slice(start, start + len(conn))
+        start += len(conn)
+        weight = area * (pressure[sl] * mask[sl])[:, None]  # (E, g)
+        nodal = np.einsum("eg,gn,egk->enk", weight, shape, -normal)
+        np.add.at(forces, conn.ravel(), nodal.reshape(-1, 3))
+    return forces
+
+
 def gravity_forces(model: ShellModel, acceleration=(0.0, 0.0, -GRAVITY)) -> np.ndarray:
     """(n, 3) float: consistent nodal self-weight of the elements (as ``*DLOAD GRAV`` applies
     it to the mid-surface) plus the lumped masses, N."""

@@ -1,0 +1,230 @@
+"""The characteristic load cases of the structural check, by the job's ``[loads] code``.
+
+``en1991`` (default, :mod:`.actions`):
+
+- ``G``: self-weight (the lumped stiffener masses included);
+- ``S``: snow ``mu_1 C_e C_t s_k`` on the horizontal projection of the top sheet, mu_1 by each
+  element's pitch (nothing above 60 degrees); ``S1``-``S4``: the half-span cases, one half of the
+  plan (split through its centroid across either principal axis) at half the load, as EN
+  1991-1-3 asks of pitched roofs and the notes ask of any shape;
+- ``W<angle>up`` and ``W<angle>down`` per wind direction (degrees from +x): the net pressure
+  ``q_p (c_pe - c_pi)`` normal to the top sheet, with the suction values of c_pe and the
+  positive internal pressure (uplift), and the pressure values with the negative one (down).
+
+``thesis`` (§7.3): ``G``, ``S`` (``snow`` on the plan), ``W`` or ``W1``/``W2`` (``wind`` projected
+along ``wind_direction`` on the faces it meets first), each wind case used in both signs.
+
+A variable case whose resultant is below ``NEGLIGIBLE`` of the self-weight's is a warning that
+names it and why (a wind direction that misses the shape, a roof too steep to hold snow).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError, Issue
+from . import ccx
+from .actions import (
+    WindProfile,
+    external_coefficients,
+    snow_load,
+    snow_shape,
+)
+from .loads import GRAVITY, area_forces, element_integrals, normal_forces, wind_exposed
+from .mesh import ShellModel
+
+#: a variable case below this share of the self-weight's resultant is reported
+NEGLIGIBLE = 0.01
+#: a half-span snow case carries this share of the load on its lighter half (EN 1991-1-3 5.3.3)
+HALF_SPAN_SHARE = 0.5
+
+
+@dataclass(frozen=True)
+class CaseInfo:
+    """What a load case is: ``action`` G, snow or wind, and a sentence for the report."""
+
+    action: str
+    description: str
+
+
+def load_cases(
+    shell: ShellModel, job
+) -> tuple[list[ccx.LoadCase], dict[str, CaseInfo], list[Issue]]:
+    """The characteristic cases (see the module docstring), what each is, and the warnings."""
+    cases = [ccx.LoadCase("G", gravity=np.array([0.0, 0.0, -GRAVITY]))]
+    info = {"G": CaseInfo("G", "self-weight (g = 9.81 m/s2), corner stiffeners lumped")}
+    top = shell.group == 0
+    if job.loads.code == "thesis":
+        more, more_info = _thesis_cases(shell, job.loads, top)
+    else:
+        more, more_info = _snow_cases(shell, job.loads, top)
+        wind, wind_info = _wind_cases(shell, job.loads, top)
+        more, more_info = more + wind, {**more_info, **wind_info}
+    cases += more
+    info.update(more_info)
+    return cases, info, _negligible(shell, cases, info)
+
+
+# --------------------------------------------------------------------------------------------
+# EN 1991
+# --------------------------------------------------------------------------------------------
+def principal_axes(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The plan's centroid (2,) and principal axes (2, 2) (rows, the major first) of
+    ``points (n, 3)``; the major axis points along +x (or +y when it runs square to x)."""
+    xy = points[:, :2]
+    centre = xy.mean(axis=0)
+    _, vectors = np.linalg.eigh(np.cov((xy - centre).T))
+    axes = vectors[:, ::-1].T.copy()
+    for k in range(2):
+        lead = axes[k, 0] if abs(axes[k, 0]) > 1e-9 else axes[k, 1]
+        if lead < 0:
+            axes[k] *= -1
+    return centre, axes
+
+
+def _centres(shell: ShellModel) -> np.ndarray:
+    return np.concatenate(
+        [shell.nodes[shell.quads].mean(axis=1), shell.nodes[shell.triangles].mean(axis=1)]
+    )[: shell.n_elements]
+
+
+def _snow_cases(shell, loads, top) -> tuple[list[ccx.LoadCase], dict[str, CaseInfo]]:
+    if loads.snow_ground <= 0:
+        return [], {}
+    normals, _ = element_integrals(shell)
+    pitch = np.degrees(np.arccos(np.clip(normals[:, 2], -1.0, 1.0)))
+    mu = snow_shape(pitch, loads.snow_fenced)
+    s = snow_load(loads.snow_ground, loads.snow_exposure, loads.snow_thermal)
+    base = f"C_e C_t s_k = {s * 1e3:.3g} kN/m2 x mu_1 by the pitch (0.8 up to 30 deg, 0 from 60)"
+    cases = [ccx.LoadCase("S", forces=area_forces(shell, s * mu, (0, 0, -1), top, True))]
+    info = {"S": CaseInfo("snow", f"snow, undrifted: {base}, on the plan")}
+    centres = _centres(shell)
+    centre, axes = principal_axes(centres[top])
+    across = (centres[:, :2] - centre) @ axes.T  # (E, 2)
+    for k, (axis, which) in enumerate(
+        ((0, "major"), (0, "major"), (1, "minor"), (1, "minor")), start=1
+    ):
+        lighter = across[:, axis] < 0 if k % 2 else across[:, axis] >= 0
+        share = np.where(lighter, HALF_SPAN_SHARE, 1.0)
+        side = "-" if k % 2 else "+"
+        cases.append(
+            ccx.LoadCase(f"S{k}", forces=area_forces(shell, s * mu * share, (0, 0, -1), top, True))
+        )
+        info[f"S{k}"] = CaseInfo(
+            "snow",
+            f"snow, half-span: as S, the {side} half along the plan's {which} axis "
+            f"({axes[axis, 0]:+.2f}, {axes[axis, 1]:+.2f}) at half the load",
+        )
+    return cases, info
+
+
+def wind_directions(shell: ShellModel, loads) -> list[float]:
+    """The wind directions, degrees from +x: the job's, else along and across the plan's
+    principal axes, both ways."""
+    if loads.wind_directions:
+        return [float(a) % 360.0 for a in loads.wind_directions]
+    _, axes = principal_axes(_centres(shell)[shell.group == 0])
+    major = float(np.degrees(np.arctan2(axes[0, 1], axes[0, 0])))
+    return [(major + 90.0 * k) % 360.0 for k in range(4)]
+
+
+def reference_height(shell: ShellModel, loads) -> float:
+    """The height of the shell's top above the ground, m (z_e of a roof: its top)."""
+    return float(np.ptp(shell.nodes[:, 2])) / 1000.0 + loads.base_height / 1000.0
+
+
+def _wind_cases(shell, loads, top) -> tuple[list[ccx.LoadCase], dict[str, CaseInfo]]:
+    profile = WindProfile(loads.wind_speed, loads.terrain, c_dir=loads.wind_factor)
+    z = reference_height(shell, loads)
+    q_p = profile.peak_pressure(z)  # kN/m2
+    normals, _ = element_integrals(shell)
+    cases, info = [], {}
+    c_up, c_down = max(loads.internal_pressure), min(loads.internal_pressure)
+    for angle in wind_directions(shell, loads):
+        rad = np.radians(angle)
+        wind = np.array([np.cos(rad), np.sin(rad), 0.0])
+        c_pe = external_coefficients(normals, wind)
+        label = f"{angle:.0f}"
+        for suffix, column, c_pi in (("up", 0, c_up), ("down", 1, c_down)):
+            net = q_p * (c_pe[:, column] - c_pi) * 1e-3  # N/mm2, positive towards the sheet
+            name = f"W{label}{suffix}"
+            cases.append(ccx.LoadCase(name, forces=normal_forces(shell, net, top)))
+            info[name] = CaseInfo(
+                "wind",
+                (
+                    f"wind from {angle:.0f} deg (towards ({wind[0]:+.2f}, {wind[1]:+.2f})): "
+                    f"q_p = {q_p:.3g} kN/m2 at z = {z:.1f} m (v_b = {profile.v_b:g} m/s, "
+                    f"terrain {loads.terrain}), c_pe,10 {'suction' if column == 0 else 'pressure'}"
+                    f" values by the local pitch (approximate), c_pi = {c_pi:+g}"
+                ),
+            )
+    return cases, info
+
+
+# --------------------------------------------------------------------------------------------
+# thesis §7.3
+# --------------------------------------------------------------------------------------------
+def _thesis_cases(shell, loads, top) -> tuple[list[ccx.LoadCase], dict[str, CaseInfo]]:
+    cases, info = [], {}
+    if loads.snow > 0:
+        cases.append(
+            ccx.LoadCase("S", forces=area_forces(shell, loads.snow, (0, 0, -1), top, True))
+        )
+        info["S"] = CaseInfo(
+            "snow", f"snow {loads.snow * 1e3:g} kN/m2 on the horizontal projection"
+        )
+    if loads.wind > 0:
+        d = np.r_[np.asarray(loads.wind_direction, float), 0.0]
+        if np.linalg.norm(d) == 0:
+            raise InputError("[loads] wind_direction must not be (0, 0)")
+        d /= np.linalg.norm(d)
+        directions = (("W1", 1.0), ("W2", -1.0)) if loads.wind_opposite else (("W", 1.0),)
+        for name, sign in directions:
+            exposed = wind_exposed(shell, top, sign * d)
+            cases.append(
+                ccx.LoadCase(
+                    name, forces=area_forces(shell, loads.wind, sign * d, exposed, projected=True)
+                )
+            )
+            info[name] = CaseInfo(
+                "wind",
+                f"wind {loads.wind * 1e3:g} kN/m2 blowing along ({sign * d[0]:+.2f}, "
+                f"{sign * d[1]:+.2f}), projected, on {int(exposed.sum())} exposed "
+                f"top-sheet elements; combined as pressure (+) and suction (-)",
+            )
+    return cases, info
+
+
+def _negligible(
+    shell: ShellModel, cases: list[ccx.LoadCase], info: dict[str, CaseInfo]
+) -> list[Issue]:
+    """Warnings for variable cases whose resultant is below ``NEGLIGIBLE`` of the self-weight."""
+    from .loads import gravity_forces
+
+    weight = float(np.linalg.norm(gravity_forces(shell).sum(axis=0)))
+    issues = []
+    for case in cases:
+        if case.forces is None or weight <= 0:
+            continue
+        resultant = float(np.linalg.norm(case.forces.sum(axis=0)))
+        if resultant >= NEGLIGIBLE * weight:
+            continue
+        why = (
+            "the wind in that direction meets almost nothing of the shape (check "
+            "[loads] wind_direction)"
+            if info[case.name].action == "wind"
+            else "the top sheet is too steep to hold snow almost everywhere, or s_k is 0"
+        )
+        issues.append(
+            Issue(
+                "load-case-negligible",
+                (
+                    f"load case {case.name} ({info[case.name].description}) has a resultant of "
+                    f"{resultant / 1e3:.3g} kN, {resultant / weight:.2%} of the self-weight: {why}"
+                ),
+                severity="warning",
+            )
+        )
+    return issues
