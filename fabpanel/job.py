@@ -831,10 +831,15 @@ class StructureSection(_Section):
     #: S8R with their rib/sheet knots take ~1 min and < 2 GB on 2 cores for the static cases and
     #: 10 buckling modes
     max_elements: int = Field(default=6000, ge=50, le=200000)
-    #: ``lowest``: nodes within ``support_band`` of the lowest one (the thesis); ``boundary``:
-    #: every boundary rib; ``openings``: the ribs around the openings (support rims)
+    #: which boundary ribs stand on foundations: ``lowest``, the anchor nodes within
+    #: ``support_band`` of the lowest one (the thesis's lowest points, now at the anchorages);
+    #: ``boundary``: every boundary rib; ``openings``: the ribs round the openings (rims)
     supports: Literal["lowest", "boundary", "openings"] = "lowest"
     support_band: NonNegativeLength = _default("10 mm")
+    #: ``pinned``: the boundary ribs held at their anchor-bolt line (mid-depth nodes),
+    #: translations only; ``fixed``: every node of those ribs (a base plate clamped by two
+    #: rows of anchor bolts)
+    support_fixity: Literal["pinned", "fixed"] = "pinned"
     #: span for the deflection limit (default: twice the largest plan distance to a support)
     span: PositiveLength | None = None
     #: buckling factors requested from CalculiX (the positive ones are kept; >= 5 are reported)

@@ -9,6 +9,7 @@ pressure (Timoshenko). Every model is made with :func:`fabpanel.structure.patch_
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 import shutil
@@ -41,6 +42,7 @@ from fabpanel.structure import (
 from fabpanel.structure.ccx import read_knots, surface_nodes
 from fabpanel.structure.checks import combinations, mode_extent, span_of, von_mises
 from fabpanel.structure.mesh import grid_quads, merge_nodes, resample_grids, sandwich_settings
+from fabpanel.structure.supports import REACTION_COLUMNS
 
 DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"  # shipped: fabpanel demo
 needs_ccx = pytest.mark.skipif(
@@ -321,6 +323,31 @@ def test_barrel_vault_by_en1991_every_case_balances_and_each_action_leads(vault_
     assert all(f > 0 for f in ups)  # suction lifts the roof
     uls = s["combinations"]["ULS"]
     assert "1.35G+1.5S+0.9" + winds[0] in uls and "1.0G+1.5" + winds[0] in uls
+    # held at the anchor-bolt nodes of the two springing ribs: two supports, each carrying
+    # half the weight (the vault is symmetric) and the half-span snow unevenly
+    supports = s["supports"]["reactions"]
+    assert [r["support"] for r in supports] == ["R1", "R2"]
+    assert s["supports"]["fixity"] == "pinned"
+    weight = -cases["G"]["applied_N"][2] / 1e3
+    for r in supports:
+        assert r["cases_kN"]["G"][2] == pytest.approx(weight / 2, rel=0.01)
+    s1 = [r["cases_kN"]["S1"][2] for r in supports] + [r["cases_kN"]["S3"][2] for r in supports]
+    assert max(s1) > 1.2 * min(s1) > 0
+    with open(folder / "en1991" / "reactions.csv") as handle:
+        rows = list(csv.reader(handle))
+    assert tuple(rows[0]) == REACTION_COLUMNS
+    body = {(r[0], r[1]): np.array(r[2:], float) for r in rows[1:]}
+    assert len(body) == len(rows) - 1 == 2 * (len(cases) + len(uls) + len(s["combinations"]["SLS"]))
+    # per case, the supports add up to the total reaction
+    for name, case in cases.items():
+        total = body[("R1", name)][:3] + body[("R2", name)][:3]
+        np.testing.assert_allclose(total * 1e3, case["reaction_N"], atol=2.0, rtol=1e-6)
+    # a combination is the combination of the cases' reactions
+    np.testing.assert_allclose(
+        body[("R1", "ULS 1.35G+1.5S")],
+        1.35 * body[("R1", "G")] + 1.5 * body[("R1", "S")],
+        atol=2e-3,
+    )
 
 
 @needs_ccx

@@ -147,7 +147,9 @@ def structure_section(result) -> str:
             (
                 f"{mesh['elements']} S8R, {mesh['nodes']} nodes, "
                 f"{mesh['elements_per_side']} per panel side, "
-                f"{summary['supports']['nodes']} pinned nodes ({summary['supports']['mode']})"
+                f"{summary['supports']['nodes']} {summary['supports'].get('fixity', 'pinned')} "
+                f"anchor nodes in {len(summary['supports'].get('reactions', []))} supports "
+                f"({summary['supports']['mode']})"
             ),
         ),
         (
@@ -203,6 +205,20 @@ def structure_section(result) -> str:
         "<h3>Load cases</h3><table><tr><th>case</th><th>load</th><th>applied [N]</th>"
         f"<th>reaction [N]</th><th>error</th></tr>{cases}</table>"
     )
+    supports = "".join(
+        f"<tr><td>{html.escape(r['support'])}</td><td>{_fmt(r['centroid_mm'])}</td>"
+        + "".join(f"<td>{_fmt(r['cases_kN'].get(c, []))}</td>" for c in ("G",))
+        + f"<td>{_fmt(r['max_kN'])}</td><td>{_fmt(r['min_kN'])}</td>"
+        f"<td>{_fmt(r['max_moment_kNm'])}</td></tr>"
+        for r in summary["supports"].get("reactions", [])
+    )
+    if supports:
+        parts.append(
+            "<h3>Reactions per support</h3><p>Every case and combination per support is in "
+            "<code>structure/reactions.csv</code>.</p><table><tr><th>support</th>"
+            "<th>centroid [mm]</th><th>G [kN]</th><th>combinations max [kN]</th>"
+            f"<th>combinations min [kN]</th><th>|moment| max [kN m]</th></tr>{supports}</table>"
+        )
     modes = "".join(
         f"<tr><td>{mode['mode']}</td><td>{mode['factor']:.4g}</td>"
         f"<td>{mode['panel_count']}: {html.escape(', '.join(mode['panels']))}</td>"

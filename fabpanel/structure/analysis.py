@@ -25,26 +25,31 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FabpanelError, Issue
+from ..errors import FabpanelError, GeometryError, Issue
 from . import ccx
 from .cases import load_cases
 from .checks import (
-    check_supports,
     combinations,
     combined_displacement,
     combined_von_mises,
     en1990_combinations,
-    layout_boundary_loops,
-    lowest_nodes,
     membrane_compression,
     mode_extent,
     panel_labels,
     relative_error,
-    rib_nodes_of_sides,
     span_of,
 )
 from .loads import gravity_forces
 from .mesh import ShellModel, built_share, sandwich_model, sandwich_settings
+from .supports import (
+    anchor_nodes,
+    check_supports,
+    layout_boundary_loops,
+    lowest_of,
+    rib_elements_of_sides,
+    support_reactions,
+    write_reactions_csv,
+)
 
 log = logging.getLogger(__name__)
 
@@ -136,37 +141,32 @@ def panels_built(model) -> np.ndarray:
 
 
 def shell_of(model, job) -> ShellModel:
-    """The shell model of a built :class:`~fabpanel.data.Model` with its supports. Panels that
-    were not built are meshed too (see :mod:`.mesh`)."""
+    """The shell model of a built :class:`~fabpanel.data.Model` held at its anchorages
+    (:mod:`.supports`). Panels that were not built are meshed too (see :mod:`.mesh`)."""
     developed = model.developed
     n = choose_divisions(developed, job)
     shell = sandwich_model(
         developed, sandwich_settings(job, n), model.parts, built=panels_built(model)
     )
     st = job.structure
-    if st.supports == "lowest":
-        supports = lowest_nodes(shell.nodes, st.support_band)
-        what = f'[structure] supports = "lowest" (band {st.support_band:g} mm)'
+    layout = developed.layout
+    loops = layout_boundary_loops(
+        np.asarray(layout.quads), np.asarray(layout.side_neighbours), np.asarray(layout.vertices)
+    )
+    what = f'[structure] supports = "{st.supports}"'
+    chosen = loops[1:] if st.supports == "openings" else loops
+    if not chosen:
+        raise GeometryError(f'{what}: the layout has no openings; use "lowest" or "boundary"')
+    sides = np.concatenate(chosen)
+    if job.sandwich.buildup == "sandwich":
+        supports = anchor_nodes(shell, rib_elements_of_sides(shell, sides), st.support_fixity)
     else:
-        layout = developed.layout
-        loops = layout_boundary_loops(
-            np.asarray(layout.quads),
-            np.asarray(layout.side_neighbours),
-            np.asarray(layout.vertices),
-        )
-        chosen = loops if st.supports == "boundary" else loops[1:]
-        what = f'[structure] supports = "{st.supports}"'
-        if not chosen:
-            from ..errors import GeometryError
-
-            raise GeometryError(f'{what}: the layout has no openings; use "lowest" or "boundary"')
-        sides = np.concatenate(chosen)
-        if job.sandwich.buildup == "sandwich":
-            supports = rib_nodes_of_sides(shell, sides)
-        else:
-            supports = _sheet_edge_nodes(shell, developed, sides, n)
+        supports = _sheet_edge_nodes(shell, developed, sides, n)
+    if st.supports == "lowest":
+        supports = lowest_of(shell.nodes, supports, st.support_band)
+        what += f" (band {st.support_band:g} mm)"
     check_supports(shell.nodes, supports, what)
-    return shell.replace(supports=supports)
+    return shell.replace(supports=np.unique(supports))
 
 
 def _sheet_edge_nodes(shell, developed, sides, n) -> np.ndarray:
@@ -279,6 +279,7 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
     supp = np.zeros(len(shell.nodes), bool)
     supp[shell.supports] = True
     reactions = {}
+    applied_loads = []
     for c, case in enumerate(cases):
         if case.gravity is not None:
             applied = gravity_forces(shell, case.gravity)
@@ -286,6 +287,7 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
             applied = case.forces
         else:  # a case without loads (as the deck writes it)
             applied = np.zeros((len(shell.nodes), 3))
+        applied_loads.append(applied)
         total = applied.sum(axis=0)
         reaction = dat.forces[c] - applied[supp].sum(axis=0)
         error = relative_error(-reaction, total)
@@ -327,6 +329,13 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
     sls = [c for c in combos if c.kind == "SLS"]
     f_uls = np.stack([c.factors for c in uls])
     f_sls = np.stack([c.factors for c in sls])
+    per_support = support_reactions(shell, names, dat.node_forces, applied_loads)
+    issues += _support_sum_issues(per_support, reactions)
+    combined_supports = per_support.combined(
+        [f"{c.kind} {c.name}" for c in uls + sls], np.concatenate([f_uls, f_sls])
+    )
+    if keep:
+        write_reactions_csv(folder / "reactions.csv", per_support, combined_supports)
     vm_el = combined_von_mises(f_uls, s_bot, s_top)  # (K, E)
     fy = shell.material.fy
     disp_sls = combined_displacement(f_sls, u_el)  # (K, E, 8)
@@ -464,7 +473,13 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
         "supports": {
             "mode": st.supports,
             "nodes": len(shell.supports),
-            "fixed": "translations (pinned)",
+            "fixity": st.support_fixity,
+            "fixed": (
+                "translations of the boundary ribs' anchor-bolt nodes (pinned)"
+                if st.support_fixity == "pinned"
+                else "translations of every node of the boundary ribs (fixed)"
+            ),
+            "reactions": _support_summary(per_support, combined_supports),
         },
         "mass": {
             "model_kg": round(fe_mass, 2),
@@ -541,6 +556,47 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
         tuple(issues),
         metrics,
     )
+
+
+def _support_sum_issues(per_support, reactions: dict) -> list[Issue]:
+    """The supports' reactions must add up to the total CalculiX printed, per case."""
+    issues = []
+    for c, case in enumerate(per_support.cases):
+        total = np.asarray(reactions[case]["reaction_N"], float)
+        summed = per_support.force[c].sum(axis=0)
+        if relative_error(summed, total) > REACTION_TOLERANCE:
+            issues.append(
+                Issue(
+                    "reaction-mismatch",
+                    f"load case {case}: the supports' reactions add up to "
+                    f"{np.round(summed / 1e3, 2).tolist()} kN, not the total "
+                    f"{np.round(total / 1e3, 2).tolist()} kN",
+                    severity="error",
+                )
+            )
+    return issues
+
+
+def _support_summary(per_support, combined) -> list[dict]:
+    """Per support: where it is, its reaction per characteristic case and the envelope of
+    the combinations (kN, kN m)."""
+    out = []
+    for s, name in enumerate(per_support.names):
+        force = combined.force[:, s] / 1e3
+        out.append(
+            {
+                "support": name,
+                "centroid_mm": _r(per_support.centroids[s], 1),
+                "cases_kN": {
+                    case: _r(per_support.force[c, s] / 1e3, 3)
+                    for c, case in enumerate(per_support.cases)
+                },
+                "max_kN": _r(force.max(axis=0), 3),
+                "min_kN": _r(force.min(axis=0), 3),
+                "max_moment_kNm": _r(np.abs(combined.moment[:, s]).max(axis=0) / 1e6, 3),
+            }
+        )
+    return out
 
 
 def _buckle(shell, case, folder, modes, threads, st, executable):

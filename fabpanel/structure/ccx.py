@@ -208,7 +208,8 @@ def write_deck(
     for s, case in enumerate(cases):
         out += [f"** load case {case.name}", "*STEP", "*STATIC"] + loads(case)
         if len(supported):
-            out += ["*NODE PRINT, NSET=NSUPP, TOTALS=ONLY", "RF"]
+            # per node (the reactions per support) and the total
+            out += ["*NODE PRINT, NSET=NSUPP, TOTALS=YES", "RF"]
         if s == 0:
             out += ["*EL PRINT, ELSET=EALL, TOTALS=ONLY", "EMAS"]
         out += ["*NODE FILE", "U", "*EL FILE", "S", "*END STEP"]
@@ -296,6 +297,8 @@ class DatResults:
     """Totals read from a ``.dat`` file, in step order."""
 
     forces: list[np.ndarray] = field(default_factory=list)  # (3,) per static step, N
+    #: per static step: the supported nodes' ids (n,) (model index + 1) and their RF (n, 3), N
+    node_forces: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
     mass: list[float] = field(default_factory=list)  # total mass per print, t
     buckling: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
@@ -313,6 +316,15 @@ def read_dat(path: Path) -> DatResults:
         text,
     ):
         result.forces.append(np.array([float(match.group(i)) for i in (1, 2, 3)]))
+    for block in re.split(r"\n\s*forces \(fx,fy,fz\) for set \S+ and time\s+\S+\s*\n", text)[1:]:
+        rows = re.findall(
+            rf"^\s*(\d+)\s+({_FLOAT})\s+({_FLOAT})\s+({_FLOAT})\s*$",
+            block.split("total force")[0],
+            re.MULTILINE,
+        )
+        ids = np.array([int(r[0]) for r in rows], int)
+        values = np.array([[float(v) for v in r[1:]] for r in rows]).reshape(-1, 3)
+        result.node_forces.append((ids, values))
     for match in re.finditer(
         rf"total mass for set \S+ and time\s+\S+\s*\n\s*\n?\s*({_FLOAT})", text
     ):

@@ -16,52 +16,12 @@ from itertools import product
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..errors import GeometryError
 from .mesh import ShellModel
 
 
 # --------------------------------------------------------------------------------------------
 # supports
 # --------------------------------------------------------------------------------------------
-def lowest_nodes(nodes: np.ndarray, band: float) -> np.ndarray:
-    """(s,) int: nodes no higher than ``band`` mm above the lowest node (the thesis pins the
-    lowest vertices of the sheets)."""
-    z = nodes[:, 2]
-    return np.nonzero(z <= z.min() + band)[0]
-
-
-def layout_boundary_loops(
-    quads: np.ndarray, neighbours: np.ndarray, vertices: np.ndarray
-) -> list[np.ndarray]:
-    """Boundary loops of a quad layout as arrays of (panel, side) pairs, the loop with the
-    largest area projected on the best-fitting plane first (the outer boundary)."""
-    boundary = np.argwhere(neighbours < 0)
-    start = {int(quads[p, s]): (int(p), int(s)) for p, s in boundary}
-    loops, seen = [], set()
-    for p, s in boundary:
-        if (p, s) in seen:
-            continue
-        loop, key = [], (int(p), int(s))
-        while key not in seen:
-            seen.add(key)
-            loop.append(key)
-            end = int(quads[key[0], (key[1] + 1) % 4])
-            if end not in start:
-                break
-            key = start[end]
-        loops.append(np.array(loop))
-    centre = vertices.mean(axis=0)
-    _, _, vt = np.linalg.svd(vertices - centre, full_matrices=False)
-
-    def area(loop):
-        pts = (vertices[quads[loop[:, 0], loop[:, 1]]] - centre) @ vt[:2].T
-        return abs(
-            0.5 * np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1])
-        )
-
-    return sorted(loops, key=area, reverse=True)
-
-
 def panel_labels(shell: ShellModel) -> tuple[np.ndarray, np.ndarray]:
     """``(panel, side)`` of a shell model made from panels (:func:`~.mesh.sandwich_model`);
     a :class:`ValueError` for one made without them (the validation patches)."""
@@ -71,33 +31,6 @@ def panel_labels(shell: ShellModel) -> tuple[np.ndarray, np.ndarray]:
             "from developed panels"
         )
     return shell.panel, shell.side
-
-
-def rib_nodes_of_sides(shell: ShellModel, sides: np.ndarray) -> np.ndarray:
-    """(s,) int: nodes of the rib elements on the given (panel, side) pairs."""
-    key = set(map(tuple, np.asarray(sides).tolist()))
-    panel, side = panel_labels(shell)
-    mask = np.array([(p, s) in key for p, s in zip(panel[:, 0], side)])
-    return np.unique(shell.quads[mask[: len(shell.quads)]])
-
-
-def check_supports(nodes: np.ndarray, supports: np.ndarray, what: str) -> None:
-    """Raise :class:`GeometryError` for fewer than three or collinear support nodes (the shell
-    would turn about them; CalculiX would stop on a singular matrix)."""
-    if len(supports) < 3:
-        raise GeometryError(
-            f"{what} selects {len(supports)} node(s); pinned supports need at "
-            f"least three nodes not in a line: raise [structure] support_band "
-            f"or choose another [structure] supports"
-        )
-    pts = nodes[supports] - nodes[supports].mean(axis=0)
-    sv = np.linalg.svd(pts, compute_uv=False)
-    if sv[1] < 1e-6 * max(sv[0], 1e-9):
-        raise GeometryError(
-            f"{what} selects nodes on one line; the shell could turn about it: "
-            f"raise [structure] support_band or choose another [structure] "
-            f"supports"
-        )
 
 
 def span_of(nodes: np.ndarray, supports: np.ndarray) -> float:

@@ -1,0 +1,215 @@
+"""Where the shell is held, and what each support carries.
+
+**Supports at the anchorages.** A sandwich shell stands on its boundary ribs: the rib at a
+support is the base plate, bolted to the foundation along its middle. The model restrains only
+those anchor-bolt nodes: the boundary ribs' nodes at mid-depth (between the two sheets, one at
+every element edge along the rib), translations only (``support_fixity = "pinned"``: the rib may
+turn about its bolt line), or every node of those ribs (``"fixed"``: two rows of bolts clamp
+it). Which ribs: ``supports = "lowest"`` those whose anchor nodes lie within ``support_band`` of
+the lowest one (the springing lines of a vault, the ring of a dome), ``"boundary"`` every
+boundary rib, ``"openings"`` the ribs round the openings (support rims). A shell without ribs
+(``buildup = "cladding"``) is held at its sheet's edge nodes along those sides.
+
+**Supports.** The restrained nodes fall into supports: the runs of them joined through their
+elements (a vault's two springing lines are two supports), named ``R1``, ``R2``, ... in the
+order of their centroids (x, then y). Each support's reaction is the sum of CalculiX's RF over
+its nodes less the load applied straight to them (CalculiX counts that in RF), and its moment
+about the support's centroid; combinations combine them linearly.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from ..errors import GeometryError
+from .mesh import ShellModel
+
+#: columns of ``structure/reactions.csv`` (a contract: foundation engineers' scripts read it)
+REACTION_COLUMNS = ("support", "case", "fx_kN", "fy_kN", "fz_kN", "mx_kNm", "my_kNm", "mz_kNm")
+
+
+def layout_boundary_loops(
+    quads: np.ndarray, neighbours: np.ndarray, vertices: np.ndarray
+) -> list[np.ndarray]:
+    """Boundary loops of a quad layout as arrays of (panel, side) pairs, the loop with the
+    largest area projected on the best-fitting plane first (the outer boundary)."""
+    boundary = np.argwhere(neighbours < 0)
+    start = {int(quads[p, s]): (int(p), int(s)) for p, s in boundary}
+    loops, seen = [], set()
+    for p, s in boundary:
+        if (p, s) in seen:
+            continue
+        loop, key = [], (int(p), int(s))
+        while key not in seen:
+            seen.add(key)
+            loop.append(key)
+            end = int(quads[key[0], (key[1] + 1) % 4])
+            if end not in start:
+                break
+            key = start[end]
+        loops.append(np.array(loop))
+    centre = vertices.mean(axis=0)
+    _, _, vt = np.linalg.svd(vertices - centre, full_matrices=False)
+
+    def area(loop):
+        pts = (vertices[quads[loop[:, 0], loop[:, 1]]] - centre) @ vt[:2].T
+        return abs(
+            0.5 * np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1])
+        )
+
+    return sorted(loops, key=area, reverse=True)
+
+
+def rib_elements_of_sides(shell: ShellModel, sides: np.ndarray) -> np.ndarray:
+    """(E,) bool: the rib elements on the given (panel, side) pairs."""
+    if shell.panel is None or shell.side is None:
+        raise ValueError("the shell model has no panel labels: it was not made from panels")
+    key = set(map(tuple, np.asarray(sides).tolist()))
+    return np.array([(p, s) in key for p, s in zip(shell.panel[:, 0], shell.side)])
+
+
+def anchor_nodes(shell: ShellModel, ribs: np.ndarray, fixity: str) -> np.ndarray:
+    """(s,) int: the nodes restrained on the rib elements ``ribs`` (E,) bool: their nodes
+    between the sheets (``pinned``), or all their nodes (``fixed``)."""
+    quads = shell.quads[ribs[: len(shell.quads)]]
+    nodes = np.unique(quads)
+    if fixity == "fixed":
+        return nodes
+    assert shell.side is not None
+    sheets = shell.side[: len(shell.quads)] < 0
+    on_sheets = np.zeros(len(shell.nodes), bool)
+    on_sheets[np.unique(shell.quads[sheets])] = True
+    return nodes[~on_sheets[nodes]]
+
+
+def lowest_of(nodes: np.ndarray, candidates: np.ndarray, band: float) -> np.ndarray:
+    """The ``candidates`` no higher than ``band`` mm above the lowest of them."""
+    z = nodes[candidates, 2]
+    return candidates[z <= z.min() + band]
+
+
+def check_supports(nodes: np.ndarray, supports: np.ndarray, what: str) -> None:
+    """Raise :class:`GeometryError` for fewer than three or collinear support nodes (the shell
+    would turn about them; CalculiX would stop on a singular matrix)."""
+    if len(supports) < 3:
+        raise GeometryError(
+            f"{what} selects {len(supports)} node(s); pinned supports need at "
+            f"least three nodes not in a line: raise [structure] support_band "
+            f"or choose another [structure] supports"
+        )
+    pts = nodes[supports] - nodes[supports].mean(axis=0)
+    sv = np.linalg.svd(pts, compute_uv=False)
+    if sv[1] < 1e-6 * max(sv[0], 1e-9):
+        raise GeometryError(
+            f"{what} selects nodes on one line; the shell could turn about it: "
+            f"raise [structure] support_band or choose another [structure] "
+            f"supports"
+        )
+
+
+# --------------------------------------------------------------------------------------------
+# supports and their reactions
+# --------------------------------------------------------------------------------------------
+def support_regions(shell: ShellModel) -> tuple[np.ndarray, np.ndarray]:
+    """The support of each supported node ``(s,)`` int (0-based, ordered by centroid) in the
+    order of ``shell.supports``, and the supports' centroids ``(k, 3)``."""
+    supports = np.asarray(shell.supports)
+    index = np.full(len(shell.nodes), -1)
+    index[supports] = np.arange(len(supports))
+    conn = np.concatenate([shell.quads.reshape(-1), shell.triangles.reshape(-1)])
+    owner = np.concatenate(
+        [
+            np.repeat(np.arange(len(shell.quads)), shell.quads.shape[1]),
+            np.repeat(np.arange(len(shell.triangles)) + len(shell.quads), 6)
+            if len(shell.triangles)
+            else np.zeros(0, int),
+        ]
+    )
+    keep = index[conn] >= 0
+    incidence = coo_matrix(
+        (np.ones(int(keep.sum())), (owner[keep], index[conn[keep]])),
+        shape=(shell.n_elements, len(supports)),
+    ).tocsr()
+    _, labels = connected_components(incidence.T @ incidence, directed=False)
+    centroids = np.array(
+        [shell.nodes[supports[labels == k]].mean(axis=0) for k in range(labels.max() + 1)]
+    )
+    order = np.lexsort((np.round(centroids[:, 1], 3), np.round(centroids[:, 0], 3)))
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return rank[labels], centroids[order]
+
+
+@dataclass(frozen=True)
+class SupportReactions:
+    """The reactions of every support: ``force (cases, k, 3)`` N and ``moment (cases, k, 3)``
+    N mm about each support's ``centroid (k, 3)``, one row per case in ``cases``."""
+
+    names: tuple[str, ...]
+    centroids: np.ndarray
+    cases: tuple[str, ...]
+    force: np.ndarray
+    moment: np.ndarray
+
+    def combined(self, names: list[str], factors: np.ndarray) -> SupportReactions:
+        """The same supports under combinations: ``factors (K, cases)``."""
+        return SupportReactions(
+            self.names,
+            self.centroids,
+            tuple(names),
+            np.einsum("kc,csj->ksj", factors, self.force),
+            np.einsum("kc,csj->ksj", factors, self.moment),
+        )
+
+    def rows(self) -> list[list[str]]:
+        """``REACTION_COLUMNS`` rows: per support, per case; kN and kN m."""
+        out = []
+        for s, name in enumerate(self.names):
+            for c, case in enumerate(self.cases):
+                values = np.r_[self.force[c, s] / 1e3, self.moment[c, s] / 1e6]
+                out.append([name, case, *(f"{v:.3f}" for v in values)])
+        return out
+
+
+def support_reactions(
+    shell: ShellModel,
+    cases: list[str],
+    node_forces: list[tuple[np.ndarray, np.ndarray]],
+    applied: list[np.ndarray],
+) -> SupportReactions:
+    """Each support's reaction per case from CalculiX's RF per supported node (``node_forces``:
+    ids (model index + 1) and RF per case) less the load ``applied (n, 3)`` on those nodes."""
+    supports = np.asarray(shell.supports)
+    labels, centroids = support_regions(shell)
+    k = len(centroids)
+    force = np.zeros((len(cases), k, 3))
+    moment = np.zeros((len(cases), k, 3))
+    for c, ((ids, rf), load) in enumerate(zip(node_forces, applied, strict=True)):
+        nodes = ids - 1
+        at = np.searchsorted(supports, nodes)
+        if not np.array_equal(supports[np.minimum(at, len(supports) - 1)], nodes):
+            raise ValueError("CalculiX printed reactions for nodes that are not supported")
+        reaction = rf - load[nodes]
+        for r in range(k):
+            mine = labels[at] == r
+            force[c, r] = reaction[mine].sum(axis=0)
+            moment[c, r] = np.cross(shell.nodes[nodes[mine]] - centroids[r], reaction[mine]).sum(0)
+    names = tuple(f"R{r + 1}" for r in range(k))
+    return SupportReactions(names, centroids, tuple(cases), force, moment)
+
+
+def write_reactions_csv(path: Path, *tables: SupportReactions) -> Path:
+    """``structure/reactions.csv``: ``REACTION_COLUMNS``, the characteristic cases then the
+    combinations."""
+    with open(path, "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(REACTION_COLUMNS)
+        for table in tables:
+            writer.writerows(table.rows())
+    return path
