@@ -385,6 +385,12 @@ class FlatPart:
     stock_form : str
         ``plate`` (burnt from plate, nested) or ``flat-bar`` (a straight rib sawn from flat
         bar, :mod:`fabpanel.flat.flatbar`).
+    bend_radius : float
+        single-curved sheets: the smallest bending radius at the unrolling fibre, mm (0: flat,
+        double curved or unknown).
+    spring_stress : float
+        a sheet sprung elastically onto its ribs (forming ``... SPRING``): the bending stress
+        that stays locked in, E t / (2 R), MPa; 0 when rolled or flat (:mod:`fabpanel.forming`).
     """
 
     id: str
@@ -407,6 +413,8 @@ class FlatPart:
     mark: str = ""
     bend_tick: float = 0.0
     stock_form: Literal["plate", "flat-bar"] = "plate"
+    bend_radius: float = 0.0
+    spring_stress: float = 0.0
     files: tuple[str, ...] = ()
 
     @property
@@ -434,6 +442,8 @@ class FlatPart:
             record["forming"] = self.forming
         if self.stock_form != "plate":
             record["stock_form"] = self.stock_form
+        if self.spring_stress:
+            record["spring_stress_MPa"] = round(self.spring_stress, 1)
         if self.edge_lengths_flat is not None:
             record["edge_lengths_flat_mm"] = _round(self.edge_lengths_flat, 3)
             record["edge_lengths_3d_mm"] = _round(self.edge_lengths_3d, 3)

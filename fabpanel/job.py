@@ -675,6 +675,10 @@ class CuttingSection(_Section):
     hole_tolerance: PositiveLength = _default("0.5 mm")
     #: sheets are unrolled at this fibre of the plate
     neutral_fibre: Literal["mid", "outer", "inner"] = "mid"
+    #: ``auto``: a single-curved sheet is sprung onto its ribs when the bending stress it
+    #: keeps, E t / (2 R), is at most half of f_y, else rolled; ``roll``: every curved sheet is
+    #: rolled (:mod:`fabpanel.forming`)
+    forming: Literal["auto", "roll"] = "auto"
     #: bend lines etched as short ticks at the sheet's edges (the roller lines them up), or as
     #: full lines across the sheet
     bend_marks: Literal["ticks", "lines"] = "ticks"

@@ -274,7 +274,10 @@ def _run_stages(
             "structure",
             None,
             lambda: analyse(
-                state["model"], job, folder=folder / "structure" if folder is not None else None
+                state["model"],
+                job,
+                folder=folder / "structure" if folder is not None else None,
+                flat=state.get("flat"),
             ),
             issues,
         )

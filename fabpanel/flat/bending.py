@@ -63,6 +63,12 @@ class Bending:
     radii: np.ndarray
     convex: bool
 
+    def smallest_radius(self) -> float:
+        """The tightest bending radius of a single-curved sheet, mm (0 otherwise)."""
+        if self.form != "single" or not len(self.radii):
+            return 0.0
+        return float(self.radii[:, 0].min())
+
     def instruction(self) -> str:
         """The etched forming instruction: ``OUT CONVEX R4000`` (cylinder), ``OUT CONCAVE
         R866-1501`` (a cone's radii along its rulings), ``OUT CONVEX R934+`` (from R934 opening

@@ -24,6 +24,7 @@ from shapely.ops import polylabel
 
 from ..data import FlatPart, FlatParts, Hole, MarkGroup, Model, Part
 from ..errors import GeometryError, Issue
+from ..forming import formed
 from ..geom.flatten import flatten_grid
 from ..geom.polygon import polygon_area
 from ..job import Job
@@ -211,6 +212,7 @@ def unroll_sheet(part: Part) -> FlatPart:
         bend_lines=bending.lines,  # cut round the labels once they are placed (labelled)
         max_strain=strain,
         forming=bending.instruction(),
+        bend_radius=bending.smallest_radius(),
         face=HIDDEN_FACE_UP,
         edge_lengths_flat=lengths_flat,
         edge_lengths_3d=lengths_3d,
@@ -330,10 +332,13 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
         )
 
     flats = [
-        dataclasses.replace(
-            flat,
-            round_holes=tuple(h for h in flat.round_holes if not drilled(h, flat.thickness)),
-            drill_holes=tuple(h for h in flat.round_holes if drilled(h, flat.thickness)),
+        formed(
+            dataclasses.replace(
+                flat,
+                round_holes=tuple(h for h in flat.round_holes if not drilled(h, flat.thickness)),
+                drill_holes=tuple(h for h in flat.round_holes if drilled(h, flat.thickness)),
+            ),
+            job,
         )
         for flat in flats
     ]

@@ -39,6 +39,7 @@ from .checks import (
     relative_error,
     span_of,
 )
+from .forming import sprung_sheet_findings
 from .loads import gravity_forces
 from .mesh import ShellModel, built_share, sandwich_model, sandwich_settings
 from .supports import (
@@ -181,11 +182,15 @@ def _sheet_edge_nodes(shell, developed, sides, n) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 # the stage
 # --------------------------------------------------------------------------------------------
-def analyse(model, job, folder: str | Path | None = None, threads: int | None = None) -> Structure:
+def analyse(
+    model, job, folder: str | Path | None = None, threads: int | None = None, flat=None
+) -> Structure:
     """Stage: the structural check of a built :class:`~fabpanel.data.Model` (module docstring).
 
     folder : where the decks and results are kept (created); default a temporary folder.
     threads : CalculiX threads (``[structure] threads`` wins; default all cores).
+    flat : the cut stage's :class:`~fabpanel.data.FlatParts`: the sheets sprung onto their
+        ribs are checked with the bending stress they keep (:mod:`.forming`).
 
     Without CalculiX, or when it fails, returns ``analysed = False`` with the reason and an
     issue, unless ``[structure] required``: then raises
@@ -207,10 +212,10 @@ def analyse(model, job, folder: str | Path | None = None, threads: int | None = 
     try:
         if folder is None:
             with tempfile.TemporaryDirectory(prefix="fabpanel-ccx-") as tmp:
-                return _analyse(model, job, Path(tmp), threads, executable, keep=False)
+                return _analyse(model, job, Path(tmp), threads, executable, False, flat)
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
-        return _analyse(model, job, folder, threads, executable, keep=True)
+        return _analyse(model, job, folder, threads, executable, True, flat)
     except FabpanelError as err:
         if st.required:
             raise
@@ -223,7 +228,9 @@ def analyse(model, job, folder: str | Path | None = None, threads: int | None = 
         )
 
 
-def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool) -> Structure:
+def _analyse(
+    model, job, folder: Path, threads: int, executable: str, keep: bool, flat
+) -> Structure:
     started = time.perf_counter()
     st, loads = job.structure, job.loads
     developed = model.developed
@@ -410,6 +417,8 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
 
     # ---- per panel -------------------------------------------------------------------------
     util_el = vm_el.max(axis=0) / fy
+    forming, forming_issues = sprung_sheet_findings(shell, util_el * fy, fy, flat, panel_ids)
+    issues += forming_issues
     disp_el = disp_sls.max(axis=(0, 2))
     per_panel = {}
     for p, pid in enumerate(panel_ids):
@@ -429,6 +438,7 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
         "deflection": max_disp <= limit,
         "stress": max_vm <= fy,
         "buckling": first >= required,
+        "sprung_sheets": not forming_issues,
     }
     seconds = time.perf_counter() - started
     files = tuple(sorted(p.name for p in folder.iterdir() if p.is_file())) if keep else ()
@@ -470,6 +480,7 @@ def _analyse(model, job, folder: Path, threads: int, executable: str, keep: bool
                 else "none in the model"
             ),
         },
+        "forming": forming,
         "supports": {
             "mode": st.supports,
             "nodes": len(shell.supports),
