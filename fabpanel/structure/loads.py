@@ -134,19 +134,25 @@ def area_forces(
     """
     direction = np.asarray(direction, float)
     direction = direction / np.linalg.norm(direction)
-    mask = np.ones(model.n_elements, bool) if elements is None else np.asarray(elements, bool)
-    pressure = np.broadcast_to(np.asarray(pressure, float), (model.n_elements,))
     forces = np.zeros((len(model.nodes), 3))
-    start = 0
-    for conn, shape, area, normal in integration_points(model):
-        sl = slice(start, start + len(conn))
-        start += len(conn)
-        weight = area * (pressure[sl] * mask[sl])[:, None]
+    for conn, shape, weight, normal in _loaded_points(model, pressure, elements):
         if projected:
             weight = weight * np.maximum(0.0, -normal @ direction)
         nodal = weight @ shape  # (E, nn)
         np.add.at(forces, conn.ravel(), nodal.ravel()[:, None] * direction[None])
     return forces
+
+
+def _loaded_points(model: ShellModel, pressure, elements: np.ndarray | None):
+    """Per element type: ``(conn, N, pressure x dA (E, g), normal (E, g, 3))`` with the
+    pressure ``(E,)`` or scalar, zero outside ``elements``."""
+    mask = np.ones(model.n_elements, bool) if elements is None else np.asarray(elements, bool)
+    pressure = np.broadcast_to(np.asarray(pressure, float), (model.n_elements,))
+    start = 0
+    for conn, shape, area, normal in integration_points(model):
+        sl = slice(start, start + len(conn))
+        start += len(conn)
+        yield conn, shape, area * (pressure[sl] * mask[sl])[:, None], normal
 
 
 def normal_forces(
@@ -155,14 +161,8 @@ def normal_forces(
     """(n, 3) float: consistent nodal forces of a pressure acting along each element's normal,
     N: ``pressure (E,)`` N/mm2, positive towards the surface (against its normal, which points
     out of the shell: up on a roof), as wind pressure is signed."""
-    mask = np.ones(model.n_elements, bool) if elements is None else np.asarray(elements, bool)
-    pressure = np.broadcast_to(np.asarray(pressure, float), (model.n_elements,))
     forces = np.zeros((len(model.nodes), 3))
-    start = 0
-    for conn, shape, area, normal in integration_points(model):
-        sl = slice(start, start + len(conn))
-        start += len(conn)
-        weight = area * (pressure[sl] * mask[sl])[:, None]  # (E, g)
+    for conn, shape, weight, normal in _loaded_points(model, pressure, elements):
         nodal = np.einsum("eg,gn,egk->enk", weight, shape, -normal)
         np.add.at(forces, conn.ravel(), nodal.reshape(-1, 3))
     return forces
