@@ -563,11 +563,25 @@ min_plasma_hole = 1.0          # holes under this many thicknesses are drilled (
 seed = 0                       # same seed, same nest
 
 [loads]
-snow = "0.56 kN/m2"            # on the horizontal projection
-wind = "0.8 kN/m2"
-wind_direction = [1.0, 0.0]    # horizontal direction; both signs are checked
-gamma_g = 1.2
+code = "en1991"                # EN 1991 loads, EN 1990 combinations; "thesis": §7.3's simple loads
+snow_ground = "0.7 kN/m2"      # s_k from the national snow map (0.7: the Netherlands)
+snow_exposure = 1.0            # C_e: windswept 0.8, normal 1.0, sheltered 1.2
+snow_thermal = 1.0             # C_t
+wind_speed = "25 m/s"          # v_b,0 from the national wind map
+terrain = "II"                 # terrain category 0, I, II, III, IV
+base_height = "0 m"            # the shell's lowest point above the ground
+# wind_directions = [0.0, 90.0, 180.0, 270.0]   # default: along and across the plan's axes
+internal_pressure = [0.2, -0.3]  # c_pi under the shell, both used
+gamma_g_sup = 1.35             # EN 1990 Table A1.2(B); national annex values go here
+gamma_g_inf = 1.0
 gamma_q = 1.5
+psi0_snow = 0.5                # Table A1.1, sites up to 1000 m
+psi0_wind = 0.6
+# code = "thesis" uses these instead:
+# snow = "0.56 kN/m2"          # on the horizontal projection
+# wind = "0.8 kN/m2"
+# wind_direction = [1.0, 0.0]  # horizontal direction; both signs are checked
+# gamma_g = 1.2
 buckling_knockdown = 0.1667    # 1/6: a linear buckling factor of 6 is required
 deflection_limit = 300.0       # span / 300
 
