@@ -157,3 +157,15 @@ def test_a_case_that_misses_the_shape_is_a_warning_naming_it():
     _, _, issues = load_cases(model, _job(code="thesis", snow="0 kN/m2"))
     assert [i for i in issues if "load case W " in i.message and "wind" in i.message]
     assert gravity_forces(model).sum() < 0
+
+
+def test_the_assumptions_name_the_code_and_what_is_left_out():
+    from fabpanel.structure.assumptions import assumptions
+
+    en = assumptions(_job(terrain="III", wind_speed="27 m/s"), 10.0, 0)
+    assert any("terrain category III" in a and "v_b,0 = 27 m/s" in a for a in en)
+    assert any(a.startswith("external wind pressure coefficients APPROXIMATE") for a in en)
+    assert any("q_p = 0.779 kN/m2" in a for a in en)  # 1.71 x 0.5 x 1.25 kg/m3 x (27 m/s)^2
+    thesis = assumptions(_job(code="thesis"), None, 2)
+    assert thesis[0].startswith("loads of the thesis") and not any("APPROX" in a for a in thesis)
+    assert any(a.startswith("2 sheets sprung") for a in thesis)

@@ -325,6 +325,10 @@ def test_barrel_vault_by_en1991_every_case_balances_and_each_action_leads(vault_
     assert "1.35G+1.5S+0.9" + winds[0] in uls and "1.0G+1.5" + winds[0] in uls
     # held at the anchor-bolt nodes of the two springing ribs: two supports, each carrying
     # half the weight (the vault is symmetric) and the half-span snow unevenly
+    # what the check assumes, in one list: the approximate wind, the joints left out
+    assumed = " ".join(s["assumptions"])
+    assert "APPROXIMATE" in assumed and "bolted joints NOT modelled" in assumed
+    assert "s_k = 1 kN/m2" in assumed
     supports = s["supports"]["reactions"]
     assert [r["support"] for r in supports] == ["R1", "R2"]
     assert s["supports"]["fixity"] == "pinned"

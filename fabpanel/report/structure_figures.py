@@ -186,6 +186,9 @@ def structure_section(result) -> str:
     if b.get("note"):
         rows.append(("buckling note", b["note"]))
     parts.append(_table(rows))
+    if summary.get("assumptions"):
+        items = "".join(f"<li>{html.escape(a)}</li>" for a in summary["assumptions"])
+        parts.append(f"<h3>What the check assumes and leaves out</h3><ul>{items}</ul>")
     if structure is not None and structure.shell is not None:
         for figure, alt in (
             (deformed_figure, "deformed shape"),

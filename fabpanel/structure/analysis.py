@@ -27,7 +27,9 @@ import numpy as np
 
 from ..errors import FabpanelError, GeometryError, Issue
 from . import ccx
-from .cases import load_cases
+from .assumptions import assumptions
+from .bolt_layout import bolt_layout
+from .cases import load_cases, reference_height
 from .checks import (
     combinations,
     combined_displacement,
@@ -419,6 +421,8 @@ def _analyse(
     util_el = vm_el.max(axis=0) / fy
     forming, forming_issues = sprung_sheet_findings(shell, util_el * fy, fy, flat, panel_ids)
     issues += forming_issues
+    layout, layout_issues = bolt_layout(model.parts, job.sandwich.rib_thickness)
+    issues += layout_issues
     disp_el = disp_sls.max(axis=(0, 2))
     per_panel = {}
     for p, pid in enumerate(panel_ids):
@@ -439,6 +443,7 @@ def _analyse(
         "stress": max_vm <= fy,
         "buckling": first >= required,
         "sprung_sheets": not forming_issues,
+        "bolt_layout": not layout_issues,
     }
     seconds = time.perf_counter() - started
     files = tuple(sorted(p.name for p in folder.iterdir() if p.is_file())) if keep else ()
@@ -481,6 +486,12 @@ def _analyse(
             ),
         },
         "forming": forming,
+        "bolt_layout": layout,
+        "assumptions": assumptions(
+            job,
+            reference_height(shell, loads) if loads.code == "en1991" else None,
+            int(forming.get("sprung", 0)),
+        ),
         "supports": {
             "mode": st.supports,
             "nodes": len(shell.supports),

@@ -1,0 +1,74 @@
+"""What the structural check assumes and leaves out, in one list for the checking engineer
+(``report/summary.json`` -> ``structure.assumptions`` and the report's first structure table)."""
+
+from __future__ import annotations
+
+from .actions import WindProfile
+
+
+def assumptions(job, reference_height_m: float | None, sprung: int) -> list[str]:
+    """Sentences, each one assumption (national values, models, simplifications, omissions)."""
+    loads, st = job.loads, job.structure
+    out = []
+    if loads.code == "thesis":
+        out.append(
+            f"loads of the thesis §7.3: snow {loads.snow * 1e3:g} kN/m2 on the plan, wind "
+            f"{loads.wind * 1e3:g} kN/m2 projected along {list(loads.wind_direction)}; "
+            f"combinations {loads.gamma_g:g} G + {loads.gamma_q:g} Q"
+        )
+    else:
+        out.append(
+            "national annex values as given in [loads] (recommended EN values where not): "
+            f"s_k = {loads.snow_ground * 1e3:g} kN/m2, C_e = {loads.snow_exposure:g}, "
+            f"C_t = {loads.snow_thermal:g}; v_b,0 = {loads.wind_speed:g} m/s, "
+            f"c_dir c_season = {loads.wind_factor:g}, terrain category {loads.terrain}, "
+            "c_0 = 1 (no orography)"
+        )
+        if reference_height_m is not None:
+            q_p = WindProfile(loads.wind_speed, loads.terrain, c_dir=loads.wind_factor)
+            out.append(
+                f"wind reference height: the shell's top, {reference_height_m:.1f} m above the "
+                f"ground (q_p = {q_p.peak_pressure(reference_height_m):.3g} kN/m2)"
+            )
+        out += [
+            (
+                "external wind pressure coefficients APPROXIMATE: c_pe,10 of a duopitch roof "
+                "(EN 1991-1-4 Table 7.4a, zone H facing the wind, zone I away) at each element's "
+                "pitch; no code figure covers a free-form shell, so a wind-tunnel or CFD study "
+                "replaces them for a final design"
+            ),
+            f"internal pressure under the shell c_pi = {list(loads.internal_pressure)}, both",
+            (
+                "snow: mu_1 by pitch (Table 5.2), undrifted and four half-span cases; the drifted "
+                "load of cylindrical roofs (§5.3.5) and drifts at obstructions are not applied"
+            ),
+            (
+                f"combinations EN 1990 (6.10): gamma_G {loads.gamma_g_sup:g} / {loads.gamma_g_inf:g}, "
+                f"gamma_Q {loads.gamma_q:g}, psi_0 snow {loads.psi0_snow:g}, wind "
+                f"{loads.psi0_wind:g}; SLS characteristic"
+            ),
+        ]
+    out += [
+        (
+            "bolted joints NOT modelled: back-to-back ribs are one continuous shell of twice the "
+            "rib thickness (rigid joints); bolt shear, bearing and tension are not checked"
+        ),
+        "rib-to-sheet welds are not checked; corner stiffeners are mass only (no stiffness)",
+        (
+            f"supports: {st.supports} boundary ribs, {st.support_fixity} at their anchor-bolt "
+            "nodes (mid-depth; every rib node when fixed); foundations rigid"
+        ),
+        "material linear elastic; von Mises at the shell faces against f_y with gamma_M0 = 1.0",
+        (
+            f"buckling: linear (LBA) with a knock-down of {loads.buckling_knockdown:.3g}; no "
+            "geometrically nonlinear analysis with imperfections (GNIA) and no mesh-convergence "
+            "study"
+        ),
+        (
+            f"{sprung} sheets sprung onto their ribs: their locked-in bending E t / (2 R) is "
+            "added to their ULS stress; rolled sheets' residual stresses are not modelled"
+            if sprung
+            else "no sprung sheets checked (rolled sheets' residual stresses are not modelled)"
+        ),
+    ]
+    return out
