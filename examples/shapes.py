@@ -582,7 +582,7 @@ psi0_wind = 0.6
 # wind = "0.8 kN/m2"
 # wind_direction = [1.0, 0.0]  # horizontal direction; both signs are checked
 # gamma_g = 1.2
-buckling_knockdown = 0.1667    # 1/6: a linear buckling factor of 6 is required
+buckling_knockdown = 0.166667  # 1/6: a linear buckling factor of 6 is required
 deflection_limit = 300.0       # span / 300
 
 [output]

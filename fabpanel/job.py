@@ -1098,7 +1098,8 @@ def _describe(err: ValidationError, data: Any = None) -> str:
             return f"{_key_name(names + error.key.split('.'))}: {error}"
         return f"{key}: {error if error is not None else first['msg']}"
     if kind == "literal_error":
-        return f"{key}: {as_written(value)} is not allowed; {first['msg'].lower()}"
+        msg = first["msg"]
+        return f"{key}: {as_written(value)} is not allowed; {msg[:1].lower()}{msg[1:]}"
     if kind in _SIGNS:
         limit = next(iter(first.get("ctx", {}).values()), "")
         # quantities: the limit in the unit the user wrote ("-1.5 m": > 0 m)

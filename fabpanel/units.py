@@ -98,7 +98,7 @@ def parse_quantity(value: object, dimension: str, where: str = "") -> float:
     if unit not in units:
         raise InputError(
             f'{key}unit "{unit}" in {as_written(value)} is not a {dimension} '
-            f"unit; use one of {allowed}"
+            f"unit fabpanel reads; use one of {allowed}"
         )
     result = number * units[unit]
     # after the scaling: "1e308 m" is a finite number but an infinite length in mm

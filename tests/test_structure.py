@@ -299,6 +299,28 @@ def vault_structure(tmp_path_factory):
 
 
 @needs_ccx
+def test_static_cases_split_over_decks_give_the_one_deck_results(vault_structure, tmp_path):
+    """The fixture's cases ran in two decks side by side, one thread each (2 cores here); one
+    deck on one thread gives the same reactions, stresses and buckling factors."""
+    result, split, _ = vault_structure
+    if split.metrics["static_decks"] < 2:
+        pytest.skip("one core or little memory: the cases ran in one deck")
+    job = fp.Job.from_toml(DEMO / "barrel-vault.toml").replace(
+        structure={"element_size": "1.3 m", "threads": 1},
+        loads={"code": "thesis", "wind_direction": [0.0, 1.0], "wind_opposite": True},
+    )
+    one = analyse(result.model, job, folder=tmp_path)
+    assert one.metrics["static_decks"] == 1
+    a, b = one.summary, split.summary
+    for name in a["load_cases"]:
+        np.testing.assert_allclose(
+            a["load_cases"][name]["reaction_N"], b["load_cases"][name]["reaction_N"], atol=0.05
+        )
+    assert a["stress"]["utilisation"] == pytest.approx(b["stress"]["utilisation"], rel=1e-6)
+    np.testing.assert_allclose(a["buckling"]["factors"], b["buckling"]["factors"], rtol=1e-5)
+
+
+@needs_ccx
 def test_barrel_vault_by_en1991_every_case_balances_and_each_action_leads(vault_structure):
     """The same built vault under the EN 1991 cases: reactions equal the applied load in
     every case, the snow is mu_1 C_e C_t s_k on the plan where the vault is flatter than 30
@@ -388,7 +410,11 @@ def test_barrel_vault_example_reactions_equal_loads_and_mass_equals_parts(vault_
     assert s["buckling"]["note"]
     assert set(s["panels"]) == set(result.model.developed.panel_ids)
     assert s["mesh"]["knots"] > 0 and s["mesh"]["knots_off_junctions"] == 0
-    for name in ("static.inp", "static.dat", "static.frd", "buckle.inp", "buckle.dat"):
+    # the static cases in one deck, or split over decks run side by side (one per thread)
+    decks = structure.metrics["static_decks"]
+    stems = ["static"] if decks == 1 else [f"static-{k + 1}" for k in range(decks)]
+    names = [f"{stem}.{ext}" for stem in stems for ext in ("inp", "dat", "frd")]
+    for name in [*names, "buckle.inp", "buckle.dat"]:
         assert (folder / name).is_file() and f"structure/{name}" in s["files"]
     assert structure.displacement.shape == structure.shell.nodes.shape
     json.dumps(s)
@@ -439,3 +465,21 @@ def test_cli_export_without_ccx_completes_unless_required(tmp_path, monkeypatch)
     assert "apt-get install calculix-ccx" in refused.output
     assert not (tmp_path / "b").exists()
     assert os.environ["FABPANEL_CCX"]
+
+
+def test_lowest_supports_are_the_boundary_sides_on_the_lowest_level():
+    """A vault springing at z = 0 on both sides, with a gable rising 1.5 m: the springing
+    sides are chosen whole (their anchor nodes, half the core along the sloping normal, may
+    spread by more than the band), the gable sides not; a boundary with no level side takes
+    the sides reaching into the band."""
+    from fabpanel.structure.supports import lowest_sides
+
+    class Developed:
+        def side_samples(self, p, s):
+            x = np.linspace(0, 1000, 5)
+            z = {0: 0 * x, 1: 0 * x, 2: 1.5 * x, 3: 1500 - 1.5 * x, 4: 2 + 0 * x}[p]
+            return np.stack([x, 0 * x, z], axis=1)
+
+    sides = np.array([[0, 0], [1, 2], [2, 1], [3, 3], [4, 0]])
+    assert lowest_sides(Developed(), sides, 10.0).tolist() == [[0, 0], [1, 2], [4, 0]]
+    assert lowest_sides(Developed(), sides[2:4], 10.0).tolist() == [[2, 1], [3, 3]]

@@ -8,7 +8,8 @@ horizontal projection and wind as a projected load on the faces it meets first, 
 the largest compressive membrane force, a factor of 6 required (knock-down 1/6, Hoogenboom);
 checks of mass, reactions, deflection (span / 300), von Mises utilisation and buckling.
 
-Two CalculiX runs: ``static.inp`` (all cases) and ``buckle.inp`` (the governing combination),
+CalculiX runs: ``static.inp`` (all cases, or ``static-1.inp``... side by side:
+:mod:`.static`) and ``buckle.inp`` (the governing combination),
 kept with their results in the output folder's ``structure/``.
 """
 
@@ -44,11 +45,12 @@ from .checks import (
 from .forming import sprung_sheet_findings
 from .loads import gravity_forces
 from .mesh import ShellModel, built_share, sandwich_model, sandwich_settings
+from .static import run_static
 from .supports import (
     anchor_nodes,
     check_supports,
     layout_boundary_loops,
-    lowest_of,
+    lowest_sides,
     rib_elements_of_sides,
     support_reactions,
     write_reactions_csv,
@@ -161,13 +163,13 @@ def shell_of(model, job) -> ShellModel:
     if not chosen:
         raise GeometryError(f'{what}: the layout has no openings; use "lowest" or "boundary"')
     sides = np.concatenate(chosen)
+    if st.supports == "lowest":
+        sides = lowest_sides(developed, sides, st.support_band)
+        what += f" (band {st.support_band:g} mm)"
     if job.sandwich.buildup == "sandwich":
         supports = anchor_nodes(shell, rib_elements_of_sides(shell, sides), st.support_fixity)
     else:
         supports = _sheet_edge_nodes(shell, developed, sides, n)
-    if st.supports == "lowest":
-        supports = lowest_of(shell.nodes, supports, st.support_band)
-        what += f" (band {st.support_band:g} mm)"
     check_supports(shell.nodes, supports, what)
     return shell.replace(supports=np.unique(supports))
 
@@ -242,19 +244,9 @@ def _analyse(
     names = [c.name for c in cases]
 
     # ---- static cases ----------------------------------------------------------------------
-    deck = ccx.write_deck(shell, folder / "static.inp", cases, title="fabpanel static cases")
-    run = ccx.run_ccx(deck, threads, st.timeout, executable)
-    dat = ccx.read_dat(run.dat)
-    frd = ccx.read_frd(run.frd)
-    bottom, top = ccx.surface_nodes(frd, shell.n_elements)
-    disp = [a for _, s, a in sorted(frd.results("DISP"), key=lambda r: r[1])]
-    stress = [a for _, s, a in sorted(frd.results("STRESS"), key=lambda r: r[1])]
-    if len(disp) != len(cases) or len(stress) != len(cases) or len(dat.forces) != len(cases):
-        raise ccx.SolverError(
-            f"CalculiX wrote {len(disp)} displacement and {len(dat.forces)} "
-            f"reaction blocks for {len(cases)} load cases"
-        )
-    knots = ccx.read_knots(deck)
+    run = run_static(shell, cases, folder, threads, st.timeout, executable)
+    dat, disp, stress = run.dat, run.displacement, run.stress
+    bottom, top, knots = run.bottom, run.top, run.knots
     el_panel, el_side = panel_labels(shell)
     junction = np.zeros(len(shell.nodes), bool)
     junction[shell.quads[el_side[: len(shell.quads)] >= 0].ravel()] = True
@@ -565,6 +557,7 @@ def _analyse(
         "peak_memory_mb": max(run.peak_memory_mb, brun.peak_memory_mb),
         "seconds": seconds,
         "equations": _equations(run.log),
+        "static_decks": run.decks,
     }
     return Structure(
         True,

@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from .actions import WindProfile
+from .actions import TERRAIN, WindProfile
 
 
 def assumptions(job, reference_height_m: float | None, sprung: int) -> list[str]:
@@ -26,9 +26,15 @@ def assumptions(job, reference_height_m: float | None, sprung: int) -> list[str]
         )
         if reference_height_m is not None:
             q_p = WindProfile(loads.wind_speed, loads.terrain, c_dir=loads.wind_factor)
+            z_min = TERRAIN[loads.terrain][1]
             out.append(
                 f"wind reference height: the shell's top, {reference_height_m:.1f} m above the "
-                f"ground (q_p = {q_p.peak_pressure(reference_height_m):.3g} kN/m2)"
+                f"ground (q_p = {q_p.peak_pressure(reference_height_m):.3g} kN/m2"
+                + (
+                    f", taken at terrain {loads.terrain}'s z_min = {z_min:g} m)"
+                    if reference_height_m < z_min
+                    else ")"
+                )
             )
         out += [
             (
@@ -36,6 +42,11 @@ def assumptions(job, reference_height_m: float | None, sprung: int) -> list[str]
                 "(EN 1991-1-4 Table 7.4a, zone H facing the wind, zone I away) at each element's "
                 "pitch; no code figure covers a free-form shell, so a wind-tunnel or CFD study "
                 "replaces them for a final design"
+            ),
+            (
+                "the same rule for every wind direction, also along a vault's axis (Table 7.4a "
+                "at theta = 0); c_pe,10 everywhere: the local checks of sheets and fixings, on "
+                "loaded areas under 10 m2, would take c_pe,1 (not done)"
             ),
             f"internal pressure under the shell c_pi = {list(loads.internal_pressure)}, both",
             (

@@ -27,6 +27,7 @@ import numpy as np
 from ..errors import InputError, Issue
 from . import ccx
 from .actions import (
+    TERRAIN,
     WindProfile,
     external_coefficients,
     snow_load,
@@ -108,14 +109,15 @@ def _snow_cases(shell, loads, top) -> tuple[list[ccx.LoadCase], dict[str, CaseIn
     ):
         lighter = across[:, axis] < 0 if k % 2 else across[:, axis] >= 0
         share = np.where(lighter, HALF_SPAN_SHARE, 1.0)
-        side = "-" if k % 2 else "+"
+        side = "negative" if k % 2 else "positive"
         cases.append(
             ccx.LoadCase(f"S{k}", forces=area_forces(shell, s * mu * share, (0, 0, -1), top, True))
         )
         info[f"S{k}"] = CaseInfo(
             "snow",
-            f"snow, half-span: as S, the {side} half along the plan's {which} axis "
-            f"({axes[axis, 0]:+.2f}, {axes[axis, 1]:+.2f}) at half the load",
+            f"snow, half-span: as S with the half of the plan on the {side} side of its "
+            f"{which} axis' normal ({axes[axis, 0] + 0.0:+.2f}, {axes[axis, 1] + 0.0:+.2f}) "
+            "at half the load, the other half at the full load",
         )
     return cases, info
 
@@ -124,10 +126,15 @@ def wind_directions(shell: ShellModel, loads) -> list[float]:
     """The wind directions, degrees from +x: the job's, else along and across the plan's
     principal axes, both ways."""
     if loads.wind_directions:
-        return [float(a) % 360.0 for a in loads.wind_directions]
+        return [_whole_turn(float(a)) for a in loads.wind_directions]
     _, axes = principal_axes(_centres(shell)[shell.group == 0])
     major = float(np.degrees(np.arctan2(axes[0, 1], axes[0, 0])))
-    return [(major + 90.0 * k) % 360.0 for k in range(4)]
+    return [_whole_turn(major + 90.0 * k) for k in range(4)]
+
+
+def _whole_turn(angle: float) -> float:
+    """``angle`` in [0, 360) degrees, to 0.01 degree (359.999 is 0: the case is named W0)."""
+    return round(angle, 2) % 360.0
 
 
 def reference_height(shell: ShellModel, loads) -> float:
@@ -139,6 +146,8 @@ def _wind_cases(shell, loads, top) -> tuple[list[ccx.LoadCase], dict[str, CaseIn
     profile = WindProfile(loads.wind_speed, loads.terrain, c_dir=loads.wind_factor)
     z = reference_height(shell, loads)
     q_p = profile.peak_pressure(z)  # kN/m2
+    z_min = TERRAIN[loads.terrain][1]
+    zmin_note = f" (taken at z_min = {z_min:g} m)" if z < z_min else ""
     normals, _ = element_integrals(shell)
     cases, info = [], {}
     c_up, c_down = max(loads.internal_pressure), min(loads.internal_pressure)
@@ -146,7 +155,7 @@ def _wind_cases(shell, loads, top) -> tuple[list[ccx.LoadCase], dict[str, CaseIn
         rad = np.radians(angle)
         wind = np.array([np.cos(rad), np.sin(rad), 0.0])
         c_pe = external_coefficients(normals, wind)
-        label = f"{angle:.0f}"
+        label = f"{round(angle) % 360:d}"
         for suffix, column, c_pi in (("up", 0, c_up), ("down", 1, c_down)):
             net = q_p * (c_pe[:, column] - c_pi) * 1e-3  # N/mm2, positive towards the sheet
             name = f"W{label}{suffix}"
@@ -154,10 +163,11 @@ def _wind_cases(shell, loads, top) -> tuple[list[ccx.LoadCase], dict[str, CaseIn
             info[name] = CaseInfo(
                 "wind",
                 (
-                    f"wind from {angle:.0f} deg (towards ({wind[0]:+.2f}, {wind[1]:+.2f})): "
-                    f"q_p = {q_p:.3g} kN/m2 at z = {z:.1f} m (v_b = {profile.v_b:g} m/s, "
-                    f"terrain {loads.terrain}), c_pe,10 {'suction' if column == 0 else 'pressure'}"
-                    f" values by the local pitch (approximate), c_pi = {c_pi:+g}"
+                    f"wind blowing towards {angle:.0f} deg ({wind[0] + 0.0:+.2f}, "
+                    f"{wind[1] + 0.0:+.2f}): q_p = {q_p:.3g} kN/m2 at z = {z:.1f} m"
+                    f"{zmin_note} (v_b = {profile.v_b:g} m/s, terrain {loads.terrain}), c_pe,10 "
+                    f"{'suction' if column == 0 else 'pressure'} values by the local pitch "
+                    f"(approximate), c_pi = {c_pi:+g}"
                 ),
             )
     return cases, info

@@ -245,9 +245,19 @@ def run_ccx(
     """Run ccx on ``deck`` in its folder. Raises :class:`CcxMissing` without ccx and
     :class:`~fabpanel.errors.SolverError` (with the first error line of the log) when the run
     fails."""
+    return run_ccx_together([deck], threads, timeout, executable)[0]
+
+
+def run_ccx_together(
+    decks: list[Path],
+    threads: int = 1,
+    timeout: float | None = None,
+    executable: str | None = None,
+) -> list[CcxRun]:
+    """Run ccx on each of ``decks`` at the same time, ``threads`` each, all started from this
+    thread (a ``preexec_fn`` is not safe from other threads) and waited for; the first failure
+    raises as :func:`run_ccx` does, after every process has ended."""
     executable = executable or require_ccx()
-    deck = Path(deck)
-    stem = deck.with_suffix("")
     env = dict(os.environ)
     threads = max(1, int(threads))
     for key in (
@@ -258,35 +268,60 @@ def run_ccx(
         "NUMBER_OF_CPUS",
     ):
         env[key] = str(threads)
-    log_path = stem.parent / f"{stem.name}.log"
     started = time.perf_counter()
+    running = []
+    for deck in map(Path, decks):
+        stem = deck.with_suffix("")
+        log_path = stem.parent / f"{stem.name}.log"
+        handle = log_path.open("w")
+        proc = subprocess.Popen(
+            [executable, "-i", stem.name],
+            cwd=stem.parent,
+            env=env,
+            stdout=handle,
+            stderr=subprocess.STDOUT,
+            preexec_fn=child_preexec,  # noqa: PLW1509 - started from the calling thread only
+        )
+        running.append((deck, stem, log_path, handle, proc))
     try:
-        with log_path.open("w") as handle:
-            proc = subprocess.run(
-                [executable, "-i", stem.name],
-                cwd=stem.parent,
-                env=env,
-                stdout=handle,
-                stderr=subprocess.STDOUT,
-                timeout=timeout,
-                check=False,
-                preexec_fn=child_preexec,
+        return _finish(running, started, timeout, threads)
+    except BaseException:  # a signal or an error: no CalculiX is left running
+        for *_, proc in running:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+        raise
+
+
+def _finish(running: list, started: float, timeout: float | None, threads: int) -> list[CcxRun]:
+    """Wait for the ``running`` CalculiX processes and read how each ended."""
+    runs, failure = [], None
+    for deck, stem, log_path, handle, proc in running:
+        left = None if timeout is None else max(0.0, timeout - (time.perf_counter() - started))
+        try:
+            proc.wait(timeout=left)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+            failure = failure or SolverError(
+                f"CalculiX did not finish {deck.name} within {timeout:g} s; use a "
+                f"coarser [structure] element_size or a longer timeout"
             )
-    except subprocess.TimeoutExpired as err:
-        raise SolverError(
-            f"CalculiX did not finish {deck.name} within {timeout:g} s; use a "
-            f"coarser [structure] element_size or a longer timeout"
-        ) from err
-    seconds = time.perf_counter() - started
-    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
-    text = log_path.read_text(errors="replace")
-    error = next((line.strip() for line in text.splitlines() if "*ERROR" in line), None)
-    dat, frd = stem.with_suffix(".dat"), stem.with_suffix(".frd")
-    if proc.returncode != 0 or error or not dat.is_file():
-        detail = error or f"exit code {proc.returncode}"
-        raise SolverError(f"CalculiX failed on {deck.name}: {detail} (log: {log_path})")
-    log.info("ccx %s: %.1f s, %d threads", deck.name, seconds, threads)
-    return CcxRun(deck, dat, frd, log_path, seconds, peak, threads)
+        finally:
+            handle.close()
+        seconds = time.perf_counter() - started
+        peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
+        text = log_path.read_text(errors="replace")
+        error = next((line.strip() for line in text.splitlines() if "*ERROR" in line), None)
+        dat, frd = stem.with_suffix(".dat"), stem.with_suffix(".frd")
+        if failure is None and (proc.returncode != 0 or error or not dat.is_file()):
+            detail = error or f"exit code {proc.returncode}"
+            failure = SolverError(f"CalculiX failed on {deck.name}: {detail} (log: {log_path})")
+        log.info("ccx %s: %.1f s, %d threads", deck.name, seconds, threads)
+        runs.append(CcxRun(deck, dat, frd, log_path, seconds, peak, threads))
+    if failure is not None:
+        raise failure
+    return runs
 
 
 # --------------------------------------------------------------------------------------------

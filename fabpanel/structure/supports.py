@@ -5,8 +5,9 @@ support is the base plate, bolted to the foundation along its middle. The model 
 those anchor-bolt nodes: the boundary ribs' nodes at mid-depth (between the two sheets, one at
 every element edge along the rib), translations only (``support_fixity = "pinned"``: the rib may
 turn about its bolt line), or every node of those ribs (``"fixed"``: two rows of bolts clamp
-it). Which ribs: ``supports = "lowest"`` those whose anchor nodes lie within ``support_band`` of
-the lowest one (the springing lines of a vault, the ring of a dome), ``"boundary"`` every
+it). Which ribs: ``supports = "lowest"`` those whose whole design edge lies within
+``support_band`` of the lowest boundary point (the springing lines of a vault, the ring of a
+dome; when none does, those reaching into the band), ``"boundary"`` every
 boundary rib, ``"openings"`` the ribs round the openings (support rims). A shell without ribs
 (``buildup = "cladding"``) is held at its sheet's edge nodes along those sides.
 
@@ -88,10 +89,17 @@ def anchor_nodes(shell: ShellModel, ribs: np.ndarray, fixity: str) -> np.ndarray
     return nodes[~on_sheets[nodes]]
 
 
-def lowest_of(nodes: np.ndarray, candidates: np.ndarray, band: float) -> np.ndarray:
-    """The ``candidates`` no higher than ``band`` mm above the lowest of them."""
-    z = nodes[candidates, 2]
-    return candidates[z <= z.min() + band]
+def lowest_sides(developed, sides: np.ndarray, band: float) -> np.ndarray:
+    """The boundary ``sides`` (k, 2) whose whole design edge lies within ``band`` mm of the
+    lowest boundary point (a level springing line is level on the design face, while its
+    anchor nodes, half the core along the sloping normal, are not); when no side lies wholly
+    within it, those that reach into it."""
+    samples = [np.asarray(developed.side_samples(p, s))[:, 2] for p, s in sides]
+    lowest = min(float(z.min()) for z in samples)
+    whole = np.array([z.max() <= lowest + band for z in samples])
+    if not whole.any():
+        whole = np.array([z.min() <= lowest + band for z in samples])
+    return np.asarray(sides)[whole]
 
 
 def check_supports(nodes: np.ndarray, supports: np.ndarray, what: str) -> None:
