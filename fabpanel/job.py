@@ -848,6 +848,9 @@ class StructureSection(_Section):
     span: PositiveLength | None = None
     #: buckling factors requested from CalculiX (the positive ones are kept; >= 5 are reported)
     buckling_modes: int = Field(default=10, ge=5, le=100)
+    #: check the first buckling factor at one element per side fewer and, while it changes by
+    #: 5 % or more, at finer sizes within ``max_elements`` (:mod:`fabpanel.structure.convergence`)
+    buckling_convergence: bool = True
     #: CalculiX threads (default: the --jobs count, else all cores)
     threads: int | None = Field(default=None, ge=1, le=256)
     #: stop a CalculiX run after this long

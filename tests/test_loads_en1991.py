@@ -169,3 +169,21 @@ def test_the_assumptions_name_the_code_and_what_is_left_out():
     thesis = assumptions(_job(code="thesis"), None, 2)
     assert thesis[0].startswith("loads of the thesis") and not any("APPROX" in a for a in thesis)
     assert any(a.startswith("2 sheets sprung") for a in thesis)
+
+
+def test_the_buckling_mesh_study_refines_until_the_factor_settles_or_the_budget_stops_it():
+    from fabpanel.structure.convergence import buckling_convergence
+
+    def first_at(k):  # a factor that falls towards 10 as 1 / k^2
+        calls.append(k)
+        return 10.0 + 20.0 / k**2
+
+    calls: list[int] = []
+    study, issues = buckling_convergence(first_at, 2, first_at(2), lambda k: k <= 6)
+    # 2 -> 1 (coarser) 30 vs 15: 100 %; 3: 12.2 (23 %); 4: 11.25 (8.6 %); 5: 10.8 (4.2 %)
+    assert [r["per_side"] for r in study["table"]] == [1, 2, 3, 4, 5]
+    assert study["converged"] and not issues and study["smallest"] == pytest.approx(10.8)
+    calls.clear()
+    study, issues = buckling_convergence(first_at, 2, 15.0, lambda k: k <= 4)
+    assert [r["per_side"] for r in study["table"]] == [1, 2, 3, 4] and not study["converged"]
+    assert issues[0].code == "buckling-not-converged" and "3 to 4" in issues[0].message

@@ -185,6 +185,13 @@ def structure_section(result) -> str:
     ]
     if b.get("note"):
         rows.append(("buckling note", b["note"]))
+    convergence = b.get("convergence", {})
+    if convergence.get("table"):
+        steps = ", ".join(
+            f"{r['per_side']} per side: {r['first']:.4g}" for r in convergence["table"]
+        )
+        verdict = "converged" if convergence["converged"] else "NOT converged (budget)"
+        rows.append(("buckling mesh study", f"{steps}: {verdict} within 5 %"))
     parts.append(_table(rows))
     if summary.get("assumptions"):
         items = "".join(f"<li>{html.escape(a)}</li>" for a in summary["assumptions"])

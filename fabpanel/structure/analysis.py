@@ -42,6 +42,7 @@ from .checks import (
     relative_error,
     span_of,
 )
+from .convergence import MAX_REFINEMENTS, buckling_convergence
 from .forming import sprung_sheet_findings
 from .loads import gravity_forces
 from .mesh import ShellModel, built_share, sandwich_model, sandwich_settings
@@ -126,16 +127,20 @@ def choose_divisions(developed, job) -> int:
     lengths = side_lengths(developed)
     if st.element_size is not None:
         return int(np.clip(math.ceil(float(np.median(lengths)) / st.element_size), 1, 32))
-    m = len(lengths)
+    best = 1
+    for n in range(1, AUTO_MAX_DIVISIONS + 1):
+        if element_count(developed, job, n) <= st.max_elements:
+            best = n
+    return best
+
+
+def element_count(developed, job, n: int) -> int:
+    """The shell model's element count at ``n`` elements per panel side."""
+    m = len(developed.panel_ids)
     sandwich = job.sandwich.buildup == "sandwich"
     neighbours = np.asarray(developed.layout.side_neighbours)
     rib_sides = int(((neighbours < 0) | (np.arange(m)[:, None] < neighbours)).sum())
-    best = 1
-    for n in range(1, AUTO_MAX_DIVISIONS + 1):
-        count = m * n * n * (2 if sandwich else 1) + (n * rib_sides if sandwich else 0)
-        if count <= st.max_elements:
-            best = n
-    return best
+    return m * n * n * (2 if sandwich else 1) + (n * rib_sides if sandwich else 0)
 
 
 def panels_built(model) -> np.ndarray:
@@ -145,11 +150,11 @@ def panels_built(model) -> np.ndarray:
     return np.array([pid in with_parts for pid in model.developed.panel_ids], bool)
 
 
-def shell_of(model, job) -> ShellModel:
+def shell_of(model, job, divisions: int | None = None) -> ShellModel:
     """The shell model of a built :class:`~fabpanel.data.Model` held at its anchorages
     (:mod:`.supports`). Panels that were not built are meshed too (see :mod:`.mesh`)."""
     developed = model.developed
-    n = choose_divisions(developed, job)
+    n = divisions or choose_divisions(developed, job)
     shell = sandwich_model(
         developed, sandwich_settings(job, n), model.parts, built=panels_built(model)
     )
@@ -408,6 +413,29 @@ def _analyse(
             f"with [structure] element_size (about a quarter of the panel size)"
         )
         issues.append(Issue("coarse-buckling-mesh", local_note))
+    convergence: dict = {"checked": False}
+    if st.buckling_convergence and math.isfinite(first):
+        n = choose_divisions(developed, job)
+
+        def first_at(k: int) -> float:
+            finer = shell_of(model, job, k)
+            finer_cases, _, _ = load_cases(finer, job)
+            case = ccx.combine(finer_cases, list(governing.factors), governing.name)
+            values, _, _ = _buckle(
+                finer, case, folder, st.buckling_modes, threads, st, executable, f"buckle-{k}"
+            )
+            positive_k = values[values > 0]
+            return float(positive_k.min()) if len(positive_k) else math.inf
+
+        convergence, found = buckling_convergence(
+            first_at,
+            n,
+            first,
+            lambda k: (
+                k <= n + MAX_REFINEMENTS and element_count(developed, job, k) <= st.max_elements
+            ),
+        )
+        issues += found
 
     # ---- per panel -------------------------------------------------------------------------
     util_el = vm_el.max(axis=0) / fy
@@ -433,7 +461,7 @@ def _analyse(
         "reactions": reactions_ok,
         "deflection": max_disp <= limit,
         "stress": max_vm <= fy,
-        "buckling": first >= required,
+        "buckling": min(first, convergence.get("smallest", first)) >= required,
         "sprung_sheets": not forming_issues,
         "bolt_layout": not layout_issues,
     }
@@ -543,6 +571,7 @@ def _analyse(
             "all_factors": [_sig(f, 4) for f in factors],
             "required": round(required, 3),
             "first": _sig(first, 4),
+            "convergence": convergence,
             "modes": modes[: max(MIN_POSITIVE_MODES, 10)],
             "note": local_note,
             "ok": checks["buckling"],
@@ -614,10 +643,10 @@ def _support_summary(per_support, combined) -> list[dict]:
     return out
 
 
-def _buckle(shell, case, folder, modes, threads, st, executable):
+def _buckle(shell, case, folder, modes, threads, st, executable, stem="buckle"):
     deck = ccx.write_deck(
         shell,
-        folder / "buckle.inp",
+        folder / f"{stem}.inp",
         buckle=case,
         modes=modes,
         title=f"fabpanel buckling under {case.name}",

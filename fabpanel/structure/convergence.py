@@ -1,0 +1,78 @@
+"""Is the first buckling factor converged in the element size?
+
+A linear buckling factor falls as the mesh is refined until the mode's half-waves are
+resolved (a sheet buckling between its ribs needs about four elements per panel side). After
+the main run at ``n`` elements per side the check runs the same buckling case at ``n - 1`` (when
+``n > 1``) and, while the factor still changes by ``TOLERANCE`` or more, at ``n + 1`` and ``n + 2``
+(``MAX_REFINEMENTS``) as far as the element budget (``[structure] max_elements``) allows. The table goes to the
+summary and the report; a factor that has not settled is a ``buckling-not-converged`` warning,
+and the buckling check uses the smallest factor found.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from ..errors import Issue
+
+#: the first factor counts as converged when it changes by less than this between two sizes
+TOLERANCE = 0.05
+#: at most this many sizes finer than the chosen one are tried (each is a CalculiX run)
+MAX_REFINEMENTS = 2
+
+
+def _sig(value: float) -> float:
+    """Four significant digits: CalculiX's eigenvalues vary in the 7th digit between runs of
+    one deck, and a job must give the same summary every time."""
+    return float(f"{value:.4g}")
+
+
+def _change(a: float, b: float) -> float:
+    return abs(b - a) / max(abs(b), 1e-12)
+
+
+def buckling_convergence(
+    first_at: Callable[[int], float],
+    n: int,
+    first: float,
+    allowed: Callable[[int], bool],
+) -> tuple[dict, list[Issue]]:
+    """The convergence table ``[(elements per side, first factor)]`` from ``n`` (factor
+    ``first``) with ``first_at(k)`` running the buckling case at ``k`` per side and
+    ``allowed(k)`` the budget, whether it converged, and the warning when it did not."""
+    table = [(n, first)]
+    if n > 1:
+        table.insert(0, (n - 1, first_at(n - 1)))
+    k = n
+    while len(table) < 2 or _change(table[-2][1], table[-1][1]) >= TOLERANCE:
+        if not allowed(k + 1):
+            break
+        k += 1
+        table.append((k, first_at(k)))
+    converged = len(table) >= 2 and _change(table[-2][1], table[-1][1]) < TOLERANCE
+    summary = {
+        "table": [{"per_side": per_side, "first": _sig(f)} for per_side, f in table],
+        "converged": converged,
+        "tolerance": TOLERANCE,
+        "smallest": _sig(min(f for _, f in table)),
+    }
+    issues = []
+    if not converged:
+        last = table[-2:]
+        detail = (
+            f"changed by {_change(last[0][1], last[1][1]):.1%} from {last[0][0]} to "
+            f"{last[1][0]} elements per panel side"
+            if len(last) == 2
+            else "could not be compared with another element size"
+        )
+        issues.append(
+            Issue(
+                "buckling-not-converged",
+                (
+                    f"the first buckling factor {detail}; the element budget stops a finer "
+                    "mesh: raise [structure] max_elements or set element_size to check it"
+                ),
+                severity="warning",
+            )
+        )
+    return summary, issues
