@@ -28,7 +28,7 @@ from .access import (
     placed,
     tool_envelope,
 )
-from .openings import Opening, footprint_reaches, opening_loops, reaches_along_z
+from .openings import Opening, bolt_designs, opening_loops
 
 #: the grid of end distances tried, mm (both panels of a joint try the same grid)
 ROOM_STEP = 10.0
@@ -44,17 +44,6 @@ def room_grid(length: float, nearest: float) -> np.ndarray:
     return np.arange(first, last + 1)
 
 
-def _designs_at(design: AccessDesign, outside, frames: np.ndarray) -> list[AccessDesign]:
-    """The tool and slot of a bolt at each of ``frames`` (its reach as the build finds it)."""
-    stack = {0: frames}
-    reaches = reaches_along_z(outside, stack, design.reach)
-    designs = {0: [design.at_reach(r) for r in reaches[0]]}
-    for _ in range(2):
-        reaches = footprint_reaches(outside, stack, designs)
-        designs = {0: [design.at_reach(r) for r in reaches[0]]}
-    return designs[0]
-
-
 def end_bolt_room(
     bolt: tuple[int, int],
     frames: np.ndarray,
@@ -67,7 +56,7 @@ def end_bolt_room(
     ``(n, 4, 4)`` can be reached (see the module docstring). ``sheet_faces``: the access sheet's
     two trimmed surfaces (the slot must meet both), ``outside`` the one the tool comes
     through."""
-    designs = _designs_at(design, outside, frames)
+    designs = bolt_designs(design, outside, {0: frames})[0]
     openings = [Opening(f, d.slot, (bolt,), d.reach) for f, d in zip(frames, designs, strict=True)]
     on_sheet = np.ones(len(frames), bool)
     for face in sheet_faces:

@@ -213,3 +213,17 @@ def reaches_along_z(surface, frames: dict[int, np.ndarray], guess: float) -> dic
             reach.append(float((point - frame[:3, 3]) @ frame[:3, 2]))
         out[side] = np.array(reach)
     return out
+
+
+def bolt_designs(
+    design: AccessDesign, surface, frames: dict[int, np.ndarray]
+) -> dict[int, list[AccessDesign]]:
+    """Side -> the tool and slot of each bolt whose joint frames are ``frames``, sized for its
+    own reach to ``surface`` (the access sheet's outer face): at first the reach above the bolt,
+    then twice the farthest over the slot (a wider slot may run farther up a curving sheet)."""
+    reaches = reaches_along_z(surface, frames, design.reach)
+    designs = {side: [design.at_reach(r) for r in reach] for side, reach in reaches.items()}
+    for _ in range(2):
+        reaches = footprint_reaches(surface, frames, designs)
+        designs = {side: [design.at_reach(r) for r in reach] for side, reach in reaches.items()}
+    return designs

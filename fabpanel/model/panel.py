@@ -43,9 +43,8 @@ from .access import ReachScene, reach_findings, reach_scene
 from .bolt_room import end_bolt_room, rooms_of
 from .openings import (
     Opening,
-    footprint_reaches,
+    bolt_designs,
     opening_loops,
-    reaches_along_z,
     slot_openings,
 )
 from .plates import packing_plate, rib, stiffener
@@ -159,12 +158,7 @@ def build_panel(payload: PanelPayload, where: list[str] | None = None) -> PanelR
     designs: dict[int, list[AccessDesign]] = {}
     if design is not None and frames:
         outside = sheets["top_outer"] if access == "top" else sheets["bottom_lower"]
-        reaches = reaches_along_z(outside.surface, frames, design.reach)
-        designs = {side: [design.at_reach(r) for r in reach] for side, reach in reaches.items()}
-        # twice: a wider slot (a farther reach) may run farther up a curving sheet
-        for _ in range(2):
-            reaches = footprint_reaches(outside.surface, frames, designs)
-            designs = {s: [design.at_reach(r) for r in reach] for s, reach in reaches.items()}
+        designs = bolt_designs(design, outside.surface, frames)
     building(f"{pid}-TOP")
     k = payload.samples.shape[0]
     parts = [

@@ -1,12 +1,13 @@
 """The structure stage: a preliminary structural check of the panelled shell with CalculiX.
 
-As the thesis does with Karamba3D (§7.3), on CalculiX: a shell model of all sheets and ribs
-(:mod:`.mesh`), pinned at the lowest nodes or the job's support regions; self-weight, snow on the
-horizontal projection and wind as a projected load on the faces it meets first, in both signs
-(:mod:`.loads`); one linear static step per characteristic case, combined to ULS
-(1.2 G + 1.5 Q) and SLS (unfactored); linear buckling (``*BUCKLE``) of the ULS combination with
-the largest compressive membrane force, a factor of 6 required (knock-down 1/6, Hoogenboom);
-checks of mass, reactions, deflection (span / 300), von Mises utilisation and buckling.
+After the thesis's check with Karamba3D (§7.3), on CalculiX: a shell model of all sheets and
+ribs (:mod:`.mesh`) held at the anchor-bolt nodes of its supporting boundary ribs
+(:mod:`.supports`); the characteristic cases of EN 1991 or the thesis (:mod:`.cases`); one linear
+static step per case, combined by EN 1990 or the thesis (:mod:`.checks`); linear buckling
+(``*BUCKLE``) of the ULS combination with the largest compressive membrane force, a factor of 6
+required (knock-down 1/6, Hoogenboom), with a mesh study (:mod:`.convergence`); checks of mass,
+reactions (in total and per support), deflection (span / 300), von Mises utilisation, sprung
+sheets (:mod:`.forming`), the bolt layout (:mod:`.bolt_layout`) and buckling.
 
 CalculiX runs: ``static.inp`` (all cases, or ``static-1.inp``... side by side:
 :mod:`.static`) and ``buckle.inp`` (the governing combination),

@@ -1,8 +1,9 @@
-"""Post-processing of linear shell results: supports, load combinations, von Mises at the shell
+"""Post-processing of linear shell results: load combinations, von Mises at the shell
 surfaces, reaction and mass checks, span, buckling mode extent.
 
-Combinations follow the thesis (§7.3.2): ULS ``gamma_g G + gamma_q sum(Q)`` (1.2 / 1.5), SLS
-unfactored, with snow and wind (each wind direction in both signs) alone and together. Linear
+Combinations by EN 1990 (:func:`en1990_combinations`, each action leading in turn) or, for
+``[loads] code = "thesis"``, the thesis's (§7.3.2): ULS ``gamma_g G + gamma_q sum(Q)`` (1.2 /
+1.5), SLS unfactored, snow and wind (each direction in both signs) alone and together. Linear
 static cases are combined here, not in CalculiX (one ``*STATIC`` step per characteristic case).
 Stresses are read at the expanded top and bottom surface nodes (``OUTPUT=3D``), so the bending
 part is included; utilisation = von Mises / f_y (gamma_M0 = 1.0, EN 1993-1-1 6.1).
