@@ -238,7 +238,7 @@ def _model_metrics(
     fit, planarity, slide = [0.0], [0.0], [0.0]
     for result in results:
         pid, meas = result.panel_id, result.measures
-        per_panel[pid] = _jsonable(meas)
+        per_panel[pid] = _jsonable({k: v for k, v in meas.items() if k not in HANDOVER})
         fit.append(meas["sheet_fit_error_mm"])
         slide.append(meas["sheet_trim_slide_mm"])
         if meas["sheet_fit_error_mm"] > tol.sheet_fit:
@@ -471,6 +471,11 @@ def _rib_contact_gap(
                     )
                 )
     return worst
+
+
+#: what a worker hands the main process for the bolt moves, not a measure of the panel (its
+#: keys are tuples: no JSON)
+HANDOVER = {"end_bolt_room"}
 
 
 def _jsonable(value: Any) -> Any:
