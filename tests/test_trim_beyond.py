@@ -1,0 +1,90 @@
+"""Sheet faces trimmed at rib planes that lie beyond their samples (a bevelled rib under a deep
+sandwich on a doubly curved shell): the trim reaches the plane on a smooth continuation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fabpanel.model import occ
+from fabpanel.model.trim import continued, side_curve, trimmed_face
+
+R, SIDE, K, DEPTH = 4000.0, 1200.0, 9, 150.0
+
+
+def _cylinder_face(noise: float, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """The face ``DEPTH`` below a cylindrical panel's design grid, offset along normals carrying
+    ``noise`` (radians, as a developed panel's normals do), and the panel's outward normals."""
+    t = np.linspace(-SIDE / 2, SIDE / 2, K)
+    a = t / R
+    x, ang = np.meshgrid(t, a, indexing="ij")
+    normals = np.stack([np.zeros_like(x), np.sin(ang), np.cos(ang)], axis=-1)
+    rng = np.random.default_rng(seed)
+    tilted = normals + rng.normal(0.0, noise, normals.shape)
+    tilted /= np.linalg.norm(tilted, axis=-1, keepdims=True)
+    design = np.stack([x, R * np.sin(ang), R * np.cos(ang)], axis=-1)
+    return design - DEPTH * tilted, normals
+
+
+def _bevelled_planes(degrees: float) -> np.ndarray:
+    """Rib planes (unit normals into the panel) through the design edges; those of sides 0 and
+    1 lean outward by ``degrees`` about the edge, so that they pass ``DEPTH sin`` beyond the
+    face's edge (side 0 at the angle -a, side 1 at x = +SIDE/2, side 2 at +a, side 3 at -x)."""
+    b, a = np.radians(degrees), SIDE / 2 / R
+
+    def across_generators(angle: float, into: float, lean: float) -> np.ndarray:
+        tangent = into * np.array([0.0, np.cos(angle), -np.sin(angle)])
+        radial = np.array([0.0, np.sin(angle), np.cos(angle)])
+        n = np.cos(lean) * tangent + np.sin(lean) * radial
+        return np.array([*n, n @ (R * radial)])
+
+    def across_axis(x: float, into: float, lean: float) -> np.ndarray:
+        n = np.array([into * np.cos(lean), 0.0, np.sin(lean)])
+        return np.array([*n, n @ np.array([x, 0.0, R])])
+
+    return np.array(
+        [
+            across_generators(-a, 1.0, b),
+            across_axis(SIDE / 2, -1.0, b),
+            across_generators(a, -1.0, 0.0),
+            across_axis(-SIDE / 2, 1.0, 0.0),
+        ]
+    )
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.004])
+def test_bevelled_planes_beyond_the_samples_are_reached(noise):
+    grid, normals = _cylinder_face(noise)
+    planes = _bevelled_planes(16.0)
+    # the planes of sides 0 and 1 pass about DEPTH sin(16 deg) = 41 mm beyond the face's edge
+    outside = planes[0, :3] @ grid[:, 0].T - planes[0, 3]
+    assert outside.min() < -30.0
+    face = trimmed_face(grid, normals[K // 2, K // 2], planes, np.ones(4, bool), DEPTH, "BOT")
+    assert not face.untrimmed.any()
+    for side in range(4):
+        edge = side_curve(face.surface, side, 65)
+        assert np.abs(edge @ planes[side, :3] - planes[side, 3]).max() < 1e-3
+    # the continuation is the face's own curvature carried on: the new surface stays within
+    # a millimetre of the cylinder 150 mm inside the design surface (noise-free case)
+    if noise == 0.0:
+        pts = occ.sample_surface(face.surface, 33, 33).reshape(-1, 3)
+        radius = np.hypot(pts[:, 1], pts[:, 2])
+        assert np.abs(radius - (R - DEPTH)).max() < 1.0
+
+
+def test_continuation_is_the_surface_inside_and_smooth_across_its_edge():
+    grid, _ = _cylinder_face(0.002)
+    surface, _ = occ.bspline_surface(grid)
+    inside = np.random.default_rng(0).random((40, 2))
+    p, du, dv = continued(surface, inside)
+    q, qu, qv = occ.surface_derivatives(surface, inside)
+    np.testing.assert_allclose(p, q, atol=1e-9)
+    np.testing.assert_allclose(du, qu, atol=1e-6)
+    np.testing.assert_allclose(dv, qv, atol=1e-6)
+    # across the edge u = 1: value and first derivative continuous
+    v = np.linspace(0.1, 0.9, 7)
+    edge = np.stack([np.full(7, 1.0), v], 1)
+    a, au, _ = continued(surface, edge - [1e-7, 0])
+    b, bu, _ = continued(surface, edge + [1e-7, 0])
+    assert np.abs(a - b).max() < 1e-3
+    assert np.abs(au - bu).max() < 1e-2 * np.abs(au).max()
