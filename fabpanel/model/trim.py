@@ -204,17 +204,26 @@ def continued(surface, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
 def _onto_plane(
     surface, uv: np.ndarray, across: int, plane: np.ndarray, what: str, side: int
 ) -> np.ndarray:
-    """Move each parameter pair along ``across`` until the surface point lies in the plane."""
+    """Move each parameter pair along ``across`` until the surface point lies in the plane.
+
+    The stations at the samples (every ``REFIT_DENSITY``-th) must reach it; one between them
+    may find no root where the interpolant ripples between samples and the plane only grazes
+    the ripple (0.47 mm short of it at a saddle's corner): it takes its parameter from its
+    neighbours, as the edge did before the stations between samples were solved at all."""
     uv = uv.copy()
     for _ in range(NEWTON_ITERATIONS):
         points, du, dv = continued(surface, uv)
         f = points @ plane[:3] - plane[3]
-        if np.abs(f).max() < PLANE_TOLERANCE:
+        reached = np.abs(f) < PLANE_TOLERANCE
+        if reached.all():
             return uv
         slope = (du if across == 0 else dv) @ plane[:3]
-        if np.any(np.abs(slope) < 1e-9):
-            break
-        uv[:, across] -= np.clip(f / slope, -0.25, 0.25)
+        moving = ~reached & (np.abs(slope) >= 1e-9)
+        uv[moving, across] -= np.clip(f[moving] / slope[moving], -0.25, 0.25)
+    if reached[::REFIT_DENSITY].all():
+        index = np.arange(len(uv))
+        uv[~reached, across] = np.interp(index[~reached], index[reached], uv[reached, across])
+        return uv
     raise _TrimFailed(
         f"{what}: the rib plane does not meet the sheet near its edge "
         "(plane nearly tangent to the sheet)",
