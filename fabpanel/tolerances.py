@@ -38,6 +38,10 @@ class Tolerances:
     #: a sheet edge may slide this far (relative to the build-up depth) along the sheet to
     #: reach its rib plane; farther, the plane is nearly tangent to the sheet and the edge stays
     trim_slide: float = 1.0
+    #: ... and an edge left untrimmed may stand this far off its rib plane, mm: a gap a fillet
+    #: weld still bridges (EN ISO 5817's root-gap allowance); farther, the sheet does not meet
+    #: its rib and the panel cannot be closed as built (an error)
+    untrimmed_gap: float = 2.0
     #: bolt holes of back-to-back ribs: 0.1 mm, far inside the 1 mm clearance of a 13 mm
     #: hole for an M12 bolt
     bolt_coaxial: float = 0.1

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from fabpanel.model import occ
+from fabpanel.model.panel import _untrimmed_finding
 from fabpanel.model.trim import continued, side_curve, trimmed_face
 
 R, SIDE, K, DEPTH = 4000.0, 1200.0, 9, 150.0
@@ -88,3 +89,19 @@ def test_continuation_is_the_surface_inside_and_smooth_across_its_edge():
     b, bu, _ = continued(surface, edge + [1e-7, 0])
     assert np.abs(a - b).max() < 1e-3
     assert np.abs(au - bu).max() < 1e-2 * np.abs(au).max()
+
+
+@pytest.mark.parametrize(("lean", "severity"), [(0.3, "warning"), (16.0, "error")])
+def test_an_edge_left_untrimmed_is_an_error_when_it_misses_its_rib(lean, severity):
+    """An edge the trim may not slide to its plane (slide limit 1 mm here) stays at the
+    developed edge: within a weld's bridging gap of its plane a warning, beyond an error that
+    gives the distance."""
+    grid, normals = _cylinder_face(0.0)
+    planes = _bevelled_planes(lean)
+    face = trimmed_face(grid, normals[K // 2, K // 2], planes, np.ones(4, bool), 1.0, "BOT")
+    assert face.untrimmed[0]
+    finding = _untrimmed_finding("P001-BOT", 0, face, planes)
+    off = DEPTH * np.sin(np.radians(lean))
+    assert finding[0] == "sheet-not-trimmed"
+    assert f"{off:.1f} mm off its rib plane" in finding[2]
+    assert (finding[3] if len(finding) > 3 else "warning") == severity

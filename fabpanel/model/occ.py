@@ -141,14 +141,15 @@ def surface_derivatives(
     return out[0], out[1], out[2]
 
 
-def surface_second_derivatives(surface: Geom_Surface, uv: np.ndarray) -> np.ndarray:
-    """(6, n, 3) float: S, dS/du, dS/dv, d2S/du2, d2S/dv2 and d2S/dudv at ``uv (n, 2)``."""
+def surface_third_derivatives(surface: Geom_Surface, uv: np.ndarray) -> np.ndarray:
+    """(10, n, 3) float at ``uv (n, 2)``: S; dS/du, dS/dv; d2S/du2, d2S/dv2, d2S/dudv;
+    d3S/du3, d3S/dv3, d3S/du2dv, d3S/dudv2 (OCCT's ``D3`` order)."""
     uv = np.asarray(uv, dtype=float).reshape(-1, 2)
-    out = np.empty((6, len(uv), 3))
+    out = np.empty((10, len(uv), 3))
     p = gp_Pnt()
-    vecs = [gp_Vec() for _ in range(5)]
+    vecs = [gp_Vec() for _ in range(9)]
     for i, (u, v) in enumerate(uv):
-        surface.D2(float(u), float(v), p, *vecs)
+        surface.D3(float(u), float(v), p, *vecs)
         out[0, i] = (p.X(), p.Y(), p.Z())
         for j, vec in enumerate(vecs, start=1):
             out[j, i] = (vec.X(), vec.Y(), vec.Z())

@@ -38,6 +38,7 @@ import numpy as np
 
 from ..errors import Finding, KernelError
 from ..fasteners import AccessDesign
+from ..tolerances import TOLERANCES
 from . import joints, occ
 from .access import ReachScene, reach_findings, reach_scene
 from .bolt_room import end_bolt_room, rooms_of
@@ -93,14 +94,7 @@ class _Faces:
             if (part, int(side)) not in self.reported:
                 self.reported.add((part, int(side)))
                 self.findings.append(
-                    (
-                        "sheet-not-trimmed",
-                        part,
-                        (
-                            f"sheet face edge {side} left at the developed edge: its rib plane "
-                            f"meets the face only {limit:g}+ mm away (nearly tangent)"
-                        ),
-                    )
+                    _untrimmed_finding(part, int(side), result, moved_in(self.planes, shifts))
                 )
         return result
 
@@ -111,6 +105,25 @@ class _Faces:
             "sheet_fit_error_mm": max(f.fit_error for f, _ in faces),
             "sheet_trim_slide_mm": max(float(np.max(f.slide - s)) for f, s in faces),
         }
+
+
+def _untrimmed_finding(part: str, side: int, face: TrimmedFace, planes: np.ndarray) -> Finding:
+    """A sheet face edge left at the developed edge: an error when it stands farther off its
+    rib plane than a weld bridges (the sheet does not meet its rib), a warning otherwise."""
+    edge = side_curve(face.surface, side, 33)
+    off = float(np.abs(edge @ planes[side, :3] - planes[side, 3]).max())
+    why = (
+        f"sheet face edge {side} left at the developed edge, {off:.1f} mm off its rib plane: "
+        "the plane meets the face only after a long slide or not at all (a rib plane nearly "
+        "tangent to the sheet, or two rib planes meeting along a line nearly in it)"
+    )
+    if off <= TOLERANCES.untrimmed_gap:
+        return ("sheet-not-trimmed", part, why)
+    fix = (
+        "the sheet does not meet its rib, so the panel cannot be closed as built: "
+        "make the panels smaller or raise [develop] rib_planarity"
+    )
+    return ("sheet-not-trimmed", part, f"{why}; {fix}", "error")
 
 
 def moved_in(planes: np.ndarray, shifts: np.ndarray) -> np.ndarray:
@@ -545,6 +558,9 @@ def _sheet(
         for opening, a, b in zip(openings, loops_a, loops_b, strict=True):
             if isinstance(a, str) or isinstance(b, str):
                 why = a if isinstance(a, str) else str(b)
+                untrimmed = np.flatnonzero(outer.untrimmed | inner.untrimmed)
+                if len(untrimmed):
+                    why += f" (its edge {', '.join(map(str, untrimmed))} was left untrimmed)"
                 missing.update(dict.fromkeys(opening.bolts, why))
             else:
                 kept.append((opening, a, b))

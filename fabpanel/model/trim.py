@@ -192,13 +192,18 @@ def coons(sides: list[np.ndarray], s: np.ndarray, t: np.ndarray) -> np.ndarray:
 def continued(surface, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Points, dS/du and dS/dv, each (n, 3) float, of ``surface`` (over the unit square)
     continued beyond it: at ``uv (n, 2)`` outside, the second-order Taylor expansion at the
-    nearest point of the square; inside, the surface itself."""
+    nearest point of the square; inside, the surface itself. The derivatives are those of the
+    continuation (along an edge the nearest point moves with the parameter, which brings in a
+    third derivative: without it the corner Newton only crept to its root)."""
     uv = np.asarray(uv, dtype=float).reshape(-1, 2)
     nearest = np.clip(uv, 0.0, 1.0)
-    point, du, dv, duu, dvv, duv = occ.surface_second_derivatives(surface, nearest)
+    s, du, dv, duu, dvv, duv, _, _, duuv, duvv = occ.surface_third_derivatives(surface, nearest)
     a, b = (uv - nearest)[:, :1], (uv - nearest)[:, 1:]
-    point = point + du * a + dv * b + 0.5 * (duu * a**2 + 2 * duv * a * b + dvv * b**2)
-    return point, du + duu * a + duv * b, dv + duv * a + dvv * b
+    u_inside, v_inside = (a == 0.0), (b == 0.0)
+    point = s + du * a + dv * b + 0.5 * (duu * a**2 + 2 * duv * a * b + dvv * b**2)
+    d_u = du + duu * a + duv * b + u_inside * 0.5 * duvv * b**2
+    d_v = dv + duv * a + dvv * b + v_inside * 0.5 * duuv * a**2
+    return point, d_u, d_v
 
 
 def _onto_plane(
