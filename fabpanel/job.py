@@ -346,6 +346,9 @@ class BoltSection(_Section):
     #: ``normal``: non-preloaded bolts in normal round holes (EN 1090-2 Table 11 clearance);
     #: ``fitted``: fitted bolts, whose holes are always drilled (or reamed), never burnt
     fit: Literal["normal", "fitted"] = "normal"
+    #: property class of the bolts (EN ISO 898-1; EN 1993-1-8 Table 3.1): their shear and
+    #: tension resistance in the structural check and their stiffness in its model
+    grade: Literal["4.6", "5.6", "8.8", "10.9"] = "8.8"
 
 
 class WeldSection(_Section):
@@ -600,6 +603,9 @@ class MaterialSection(_Section):
     nu: float = Field(default=0.3, gt=0, lt=0.5)
     density: Density = _default("7850 kg/m3", "density")
     fy: Stress = _default("235 MPa", "stress")
+    #: ultimate tensile strength (EN 10025-2, t <= 40 mm: S235 360, S275 430, S355 490 MPa
+    #: (510 in EN 1993-1-1 Table 3.1)): the bolts' bearing resistance and stiffness
+    fu: Stress = _default("360 MPa", "stress")
 
 
 class StockSection(_Section):
@@ -844,6 +850,12 @@ class StructureSection(_Section):
     #: translations only; ``fixed``: every node of those ribs (a base plate clamped by two
     #: rows of anchor bolts)
     support_fixity: Literal["pinned", "fixed"] = "pinned"
+    #: ``bolted``: each panel's ribs are their own shells, the back-to-back ribs of a joint
+    #: joined at the bolts by springs with EN 1993-1-8 Table 6.11 stiffness, and every bolt
+    #: checked for shear, bearing and tension (:mod:`fabpanel.structure.connectors`);
+    #: ``rigid``: the two ribs of a joint are one shell of twice the thickness (the joint a
+    #: weld), for comparison
+    joints: Literal["bolted", "rigid"] = "bolted"
     #: span for the deflection limit (default: twice the largest plan distance to a support)
     span: PositiveLength | None = None
     #: buckling factors requested from CalculiX (the positive ones are kept; >= 5 are reported)

@@ -30,6 +30,7 @@ import numpy as np
 from ..errors import FabpanelError, GeometryError, Issue
 from . import ccx
 from .assumptions import assumptions
+from .bolt_checks import bolt_checks, write_bolts_csv
 from .bolt_layout import bolt_layout
 from .cases import load_cases, reference_height
 from .checks import (
@@ -43,6 +44,7 @@ from .checks import (
     relative_error,
     span_of,
 )
+from .connectors import attach
 from .convergence import MAX_REFINEMENTS, buckling_convergence
 from .forming import sprung_sheet_findings
 from .loads import gravity_forces
@@ -177,6 +179,7 @@ def shell_of(model, job, divisions: int | None = None) -> ShellModel:
     else:
         supports = _sheet_edge_nodes(shell, developed, sides, n)
     check_supports(shell.nodes, supports, what)
+    shell, _ = attach(shell, model, job)
     return shell.replace(supports=np.unique(supports))
 
 
@@ -438,6 +441,13 @@ def _analyse(
         )
         issues += found
 
+    # ---- bolts -----------------------------------------------------------------------------
+    _, joint = attach(shell, model, job)
+    bolts_summary, bolt_issues = bolt_checks(shell, joint, dat, f_uls, [c.name for c in uls], job)
+    issues += bolt_issues
+    if keep and joint is not None:
+        write_bolts_csv(folder / "bolts.csv", bolts_summary)
+
     # ---- per panel -------------------------------------------------------------------------
     util_el = vm_el.max(axis=0) / fy
     forming, forming_issues = sprung_sheet_findings(shell, util_el * fy, fy, flat, panel_ids)
@@ -465,6 +475,7 @@ def _analyse(
         "buckling": min(first, convergence.get("smallest", first)) >= required,
         "sprung_sheets": not forming_issues,
         "bolt_layout": not layout_issues,
+        "bolts": bool(bolts_summary.get("ok", True)),
     }
     seconds = time.perf_counter() - started
     files = tuple(sorted(p.name for p in folder.iterdir() if p.is_file())) if keep else ()
@@ -508,6 +519,7 @@ def _analyse(
         },
         "forming": forming,
         "bolt_layout": layout,
+        "bolts": {k: v for k, v in bolts_summary.items() if k != "rows"},
         "assumptions": assumptions(
             job,
             reference_height(shell, loads) if loads.code == "en1991" else None,

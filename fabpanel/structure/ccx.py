@@ -184,6 +184,9 @@ def write_deck(
                 f"*SHELL SECTION, ELSET={name}, MATERIAL=M{group.name}",
                 f"{group.thickness:.9g}",
             ]
+    springs = model.springs if model.springs is not None and len(model.springs.nodes) else None
+    if springs is not None:
+        out += _spring_cards(springs, nq + len(model.triangles))
     out.append("*BOUNDARY")
     if len(supported):
         out.append("NSUPP, 1, 3")
@@ -212,6 +215,9 @@ def write_deck(
             out += ["*NODE PRINT, NSET=NSUPP, TOTALS=YES", "RF"]
         if s == 0:
             out += ["*EL PRINT, ELSET=EALL, TOTALS=ONLY", "EMAS"]
+        if springs is not None:
+            # no spring forces are printed: their energies and the nodes' displacements are
+            out += ["*EL PRINT, ELSET=ESPR", "ELSE", "*NODE PRINT, NSET=NSPR", "U"]
         out += ["*NODE FILE", "U", "*EL FILE", "S", "*END STEP"]
     if buckle is not None:
         out += [f"** buckling under {buckle.name}", "*STEP", "*BUCKLE", f"{int(modes)}"]
@@ -221,6 +227,33 @@ def write_deck(
         out += ["*NODE FILE", "U", "*END STEP"]
     path.write_text("\n".join(out) + "\n")
     return path
+
+
+def _spring_cards(springs, first: int) -> list[str]:
+    """``SPRING2`` elements (numbered from ``first + 1``), three per node pair, one per local
+    direction, each pair with its own ``*ORIENTATION`` (its frame's rows 1 and 2)."""
+    out: list[str] = []
+    for c, ((a, b), frame, k) in enumerate(
+        zip(springs.nodes, springs.frames, springs.stiffness, strict=True)
+    ):
+        x, y = frame[0], frame[1]
+        out += [
+            f"*ORIENTATION, NAME=OS{c + 1}",
+            ", ".join(f"{v:.12g}" for v in (*x, *y)),
+        ]
+        for d in range(3):
+            element = first + 3 * c + d + 1
+            out += [
+                f"*ELEMENT, TYPE=SPRING2, ELSET=ES{c + 1}_{d + 1}",
+                f"{element}, {a + 1}, {b + 1}",
+                f"*SPRING, ELSET=ES{c + 1}_{d + 1}, ORIENTATION=OS{c + 1}",
+                f"{d + 1}, {d + 1}",
+                f"{max(float(k[d]), 1e-6):.9e}",
+            ]
+    elements = first + 1 + np.arange(3 * len(springs.nodes))
+    out += ["*ELSET, ELSET=ESPR", _ids(elements - 1)]
+    out += ["*NSET, NSET=NSPR", _ids(np.unique(springs.nodes))]
+    return out
 
 
 # --------------------------------------------------------------------------------------------
@@ -336,9 +369,23 @@ class DatResults:
     node_forces: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
     mass: list[float] = field(default_factory=list)  # total mass per print, t
     buckling: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: per static step with springs: their element ids and internal energies (N mm), and the
+    #: spring nodes' ids and displacements (n, 3)
+    spring_energy: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
+    spring_nodes: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
 
 
 _FLOAT = r"[-+]?\d*\.?\d+(?:[eE][-+]?\d+)?"
+
+
+def _until_next(block: str) -> str:
+    """A ``.dat`` block's rows: up to the next header line (one that holds letters)."""
+    rows = []
+    for line in block.split("\n"):
+        if re.search(r"[a-df-zA-DF-Z]", line):
+            break
+        rows.append(line)
+    return "\n".join(rows)
 
 
 def read_dat(path: Path) -> DatResults:
@@ -360,6 +407,27 @@ def read_dat(path: Path) -> DatResults:
         ids = np.array([int(r[0]) for r in rows], int)
         values = np.array([[float(v) for v in r[1:]] for r in rows]).reshape(-1, 3)
         result.node_forces.append((ids, values))
+    for block in re.split(
+        r"\n\s*internal energy \(element, energy\) for set ESPR and time\s+\S+\s*\n", text
+    )[1:]:
+        rows = re.findall(rf"^\s*(\d+)\s+({_FLOAT})\s*$", _until_next(block), re.MULTILINE)
+        result.spring_energy.append(
+            (np.array([int(r[0]) for r in rows], int), np.array([float(r[1]) for r in rows]))
+        )
+    for block in re.split(
+        r"\n\s*displacements \(vx,vy,vz\) for set NSPR and time\s+\S+\s*\n", text
+    )[1:]:
+        rows = re.findall(
+            rf"^\s*(\d+)\s+({_FLOAT})\s+({_FLOAT})\s+({_FLOAT})\s*$",
+            _until_next(block),
+            re.MULTILINE,
+        )
+        result.spring_nodes.append(
+            (
+                np.array([int(r[0]) for r in rows], int),
+                np.array([[float(v) for v in r[1:]] for r in rows]).reshape(-1, 3),
+            )
+        )
     for match in re.finditer(
         rf"total mass for set \S+ and time\s+\S+\s*\n\s*\n?\s*({_FLOAT})", text
     ):
@@ -492,7 +560,9 @@ def surface_nodes(frd: FrdResults, n_elements: int) -> tuple[np.ndarray, np.ndar
     element, in the S8R's node order (element ``e`` is frd element ``e + 1``)."""
     if frd.connectivity.shape[1] != 20:
         raise SolverError("only S8R models (expanded to C3D20R) are read back")
-    order = np.argsort(frd.element_ids)
+    # the shells come first; springs (two nodes each) follow them
+    shells = np.flatnonzero(frd.element_ids <= n_elements)
+    order = shells[np.argsort(frd.element_ids[shells])]
     conn = frd.connectivity[order]
     if len(conn) != n_elements or frd.element_ids[order][-1] != n_elements:
         raise SolverError(f"the .frd holds {len(conn)} elements, the model {n_elements}")

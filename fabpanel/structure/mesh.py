@@ -82,6 +82,20 @@ class ShellGroup:
 
 
 @dataclass(frozen=True)
+class Springs:
+    """Two-node springs (CalculiX ``SPRING2``, one per direction) between pairs of nodes.
+
+    nodes : (c, 2) int, the node pairs.
+    frames : (c, 3, 3) float, rows: each pair's local directions 1, 2, 3 (unit, orthogonal).
+    stiffness : (c, 3) float, N/mm along each local direction.
+    """
+
+    nodes: np.ndarray
+    frames: np.ndarray
+    stiffness: np.ndarray
+
+
+@dataclass(frozen=True)
 class ShellModel:
     """A shell model ready for a CalculiX deck.
 
@@ -106,6 +120,10 @@ class ShellModel:
         the panel(s) each element belongs to (second column -1 unless a merged rib).
     side : (e + f,) int or None
         rib side within ``panel[:, 0]`` (-1 for sheets).
+    rib_stations : (m, 4, n + 1) int or None
+        per panel side, the rib's mid-depth nodes from corner ``s`` to ``s + 1`` (-1 where the
+        side has no rib of its own: the neighbour's, in a rigid model).
+    springs : the bolted joints' connectors (:class:`Springs`) or None.
     """
 
     nodes: np.ndarray
@@ -119,6 +137,8 @@ class ShellModel:
     lumped_mass: np.ndarray | None = None
     panel: np.ndarray | None = None
     side: np.ndarray | None = None
+    rib_stations: np.ndarray | None = None
+    springs: Springs | None = None
 
     @property
     def n_elements(self) -> int:
@@ -253,6 +273,10 @@ class SandwichSettings:
     buildup: str
     material: Material
     divisions: int
+    #: ``rigid``: back-to-back ribs one shell; ``bolted``: each panel's own rib, its sheets
+    #: stopping at it, ``joint_offset`` mm in from the joint plane (the rib's mid-plane)
+    joints: str = "rigid"
+    joint_offset: float = 0.0
 
 
 def sandwich_settings(job, divisions: int) -> SandwichSettings:
@@ -260,6 +284,8 @@ def sandwich_settings(job, divisions: int) -> SandwichSettings:
 
     bu, mat = Buildup.of(job), job.material
     return SandwichSettings(
+        joints=job.structure.joints if bu.kind == "sandwich" else "rigid",
+        joint_offset=bu.t_rib / 2 + bu.welds.erection_gap / 2,
         offsets=bu.offset_map,
         t_top=bu.t_top,
         t_bot=bu.t_bot,
@@ -295,6 +321,10 @@ def sandwich_model(
     grid = resample_grids(samples, q)
     nrm = resample_grids(normals, q)
     nrm /= np.linalg.norm(nrm, axis=-1, keepdims=True)
+    neighbours = np.asarray(developed.layout.side_neighbours)
+    bolted = settings.joints == "bolted" and settings.buildup == "sandwich"
+    if bolted:
+        grid = _edges_moved_in(grid, neighbours >= 0, settings.joint_offset)
     off = settings.offsets
     top = grid + (off["top_outer"] - settings.t_top / 2) * nrm
     sandwich = settings.buildup == "sandwich"
@@ -319,8 +349,7 @@ def sandwich_model(
         b_nodes = bottom.reshape(m, q * q, 3)[:, sides]
         mids = 0.5 * (t_nodes[:, :, ::2] + b_nodes[:, :, ::2])  # (m, 4, n+1, 3)
         coords.append(mids.reshape(m, -1, 3))
-        neighbours = np.asarray(developed.layout.side_neighbours)
-        own = (neighbours < 0) | (np.arange(m)[:, None] < neighbours)
+        own = (neighbours < 0) | (np.arange(m)[:, None] < neighbours) | bolted
         p_idx, s_idx = np.nonzero(own)
         a = np.arange(n)
         t_id = base[p_idx] + sides[s_idx]  # (r, q) top sheet nodes
@@ -341,7 +370,7 @@ def sandwich_model(
             ],
             axis=-1,
         )  # (r, n, 8)
-        shared = neighbours[p_idx, s_idx] >= 0
+        shared = (neighbours[p_idx, s_idx] >= 0) & ~bolted
         elements.append(rib.reshape(-1, 8))
         groups_of.append(np.repeat(np.where(shared, 3, 2), n))
         panels_of.append(np.repeat(p_idx, n))
@@ -360,8 +389,12 @@ def sandwich_model(
         axis=1,
     )
     side = np.concatenate(side_of)
-    nodes, quads, _ = compact(all_coords, quads)
+    nodes, quads, old_to_new = compact(all_coords, quads)
     quads = _orient_sheets(nodes, quads, group, panel[:, 0], grid, nrm, n)
+    stations = None
+    if sandwich:
+        stations = np.full((m, 4, n + 1), -1)
+        stations[p_idx, s_idx] = old_to_new[m_id]
     groups = [
         ShellGroup("TOP", settings.t_top),
         ShellGroup("BOT", settings.t_bot),
@@ -377,9 +410,30 @@ def sandwich_model(
         material=settings.material,
         panel=panel,
         side=side,
+        rib_stations=stations,
     )
     built = np.ones(m, bool) if built is None else np.asarray(built, bool)
     return _mass_corrections(model, developed, settings, parts, grid, nrm, built)
+
+
+def _edges_moved_in(grid: np.ndarray, moved: np.ndarray, offset: float) -> np.ndarray:
+    """(m, q, q, 3) float: the panel grids with the boundary row of every side where ``moved
+    (m, 4)`` brought ``offset`` mm into the panel along the grid (the row of mid-side nodes
+    behind it half as far, so the elements stay regular): the sheets of a bolted joint stop at
+    their own rib's mid-plane, and the two panels share no node there."""
+    grid = grid.copy()
+    # per side: (index of the boundary row, of the mid-side row, of the next corner row, axis)
+    rows = ((0, 1, 2, 2), (-1, -2, -3, 1), (-1, -2, -3, 2), (0, 1, 2, 1))
+    for side, (edge, mid, inner, axis) in enumerate(rows):
+        which = np.flatnonzero(moved[:, side])
+        if not len(which):
+            continue
+        rows_first = grid if axis == 1 else grid.swapaxes(1, 2)  # a view: writes reach grid
+        step = rows_first[which, inner] - rows_first[which, edge]
+        unit = step / np.linalg.norm(step, axis=-1, keepdims=True)
+        rows_first[which, edge] += offset * unit
+        rows_first[which, mid] += 0.5 * offset * unit
+    return grid
 
 
 def built_share(model: ShellModel, built: np.ndarray) -> np.ndarray:

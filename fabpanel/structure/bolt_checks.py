@@ -1,0 +1,147 @@
+"""Every joint bolt checked under every ULS combination (EN 1993-1-8 Table 3.4; the model and
+the resistances in :mod:`.connectors`), with a per-bolt table for the engineer
+(``structure/bolts.csv``)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import Issue
+from . import ccx
+from .connectors import BoltDesign, JointBolts, bolt_design, bolt_forces, station_forces
+from .mesh import ShellModel
+
+#: utilisations above this are an error
+LIMIT = 1.0
+
+
+def case_bolt_forces(
+    shell: ShellModel, joint: JointBolts, dat: ccx.DatResults, design: BoltDesign
+) -> np.ndarray:
+    """(C, b, 3) float, N: every bolt's force per static case (axis; along; across)."""
+    springs = shell.springs
+    assert springs is not None
+    first = len(shell.quads) + len(shell.triangles) + 1  # element id of the first spring
+    count = len(springs.nodes)
+    node_row = {int(n) + 1: i for i, n in enumerate(np.unique(springs.nodes))}
+    per_case = []
+    for (ids, energy), (nodes, u) in zip(dat.spring_energy, dat.spring_nodes, strict=True):
+        table = np.zeros(3 * count)
+        table[ids - first] = energy
+        disp = np.zeros((len(node_row), 3))
+        disp[[node_row[int(n)] for n in nodes]] = u
+        rows = np.array([[node_row[int(a) + 1], node_row[int(b) + 1]] for a, b in springs.nodes])
+        relative = disp[rows[:, 1]] - disp[rows[:, 0]]
+        forces = station_forces(springs, table.reshape(count, 3), relative)
+        per_case.append(forces)
+    return np.stack([bolt_forces(springs, joint, f, design) for f in per_case])
+
+
+def bolt_checks(
+    shell: ShellModel,
+    joint: JointBolts | None,
+    dat: ccx.DatResults,
+    factors: np.ndarray,
+    names: list[str],
+    job,
+) -> tuple[dict, list[Issue]]:
+    """``(summary, issues)``: the largest shear, tension and utilisation of the joint bolts
+    over the ULS combinations ``factors (K, C)`` named ``names``; ``summary["rows"]`` holds
+    one row per bolt for :func:`write_bolts_csv`. Without bolted joints, says so."""
+    if joint is None or shell.springs is None or not len(joint.names):
+        why = (
+            'rigid joints ([structure] joints = "rigid"): bolts not modelled or checked'
+            if job.structure.joints == "rigid"
+            else "no bolted joints in the model"
+        )
+        return {"checked": False, "why": why}, []
+    design = bolt_design(job)
+    per_case = case_bolt_forces(shell, joint, dat, design)  # (C, b, 3)
+    combined = np.einsum("kc,cbj->kbj", factors, per_case)  # (K, b, 3)
+    shear = np.hypot(combined[..., 1], combined[..., 2])
+    tension = np.maximum(combined[..., 0], 0.0)
+    f_v, f_t = design.shear_resistance, design.tension_resistance
+    f_b = np.array([design.bearing_resistance(p) for p in joint.pitch])  # (b,)
+    util = np.stack(
+        [
+            shear / f_v,
+            shear / f_b[None],
+            tension / f_t,
+            shear / f_v + tension / (1.4 * f_t),
+        ]
+    )  # (4, K, b)
+    worst = util.max(axis=0)  # (K, b)
+    k_of = worst.argmax(axis=0)  # (b,)
+    per_bolt = worst.max(axis=0)
+    b_max = int(np.argmax(per_bolt))
+    k_max = int(k_of[b_max])
+    which = ("shear", "bearing", "tension", "shear and tension")[
+        int(np.argmax(util[:, k_max, b_max]))
+    ]
+    rows = [
+        {
+            "bolt": joint.names[b],
+            "x_mm": round(float(joint.points[b, 0]), 1),
+            "y_mm": round(float(joint.points[b, 1]), 1),
+            "z_mm": round(float(joint.points[b, 2]), 1),
+            "shear_kN": round(float(shear[:, b].max()) / 1e3, 3),
+            "tension_kN": round(float(tension[:, b].max()) / 1e3, 3),
+            "bearing_resistance_kN": round(float(f_b[b]) / 1e3, 2),
+            "utilisation": round(float(per_bolt[b]), 4),
+            "combination": names[int(k_of[b])],
+        }
+        for b in range(len(joint.names))
+    ]
+    ok = bool(per_bolt.max() <= LIMIT)
+    summary = {
+        "checked": True,
+        "bolts": len(joint.names),
+        "bolt": f"{design.bolt.name} {design.grade}",
+        "stiffness_kN_per_mm": {
+            "axial": round(design.axial_stiffness / 1e3, 1),
+            "shear": round(design.shear_stiffness / 1e3, 2),
+        },
+        "resistance_kN": {
+            "shear": round(f_v / 1e3, 2),
+            "tension": round(f_t / 1e3, 2),
+            "bearing_min": round(float(f_b.min()) / 1e3, 2),
+        },
+        "max_shear_kN": round(float(shear.max()) / 1e3, 3),
+        "max_tension_kN": round(float(tension.max()) / 1e3, 3),
+        "utilisation": round(float(per_bolt[b_max]), 4),
+        "governing": {
+            "bolt": joint.names[b_max],
+            "combination": names[k_max],
+            "check": which,
+        },
+        "ok": ok,
+        "rows": rows,
+    }
+    issues = [
+        Issue(
+            "bolt-overloaded",
+            f"{joint.names[b]}: utilisation {per_bolt[b]:.2f} under {names[int(k_of[b])]} "
+            f"(shear {shear[k_of[b], b] / 1e3:.1f} kN, tension {tension[k_of[b], b] / 1e3:.1f} "
+            f"kN; {design.bolt.name} {design.grade}); use a larger or stronger bolt or more "
+            "bolts ([sandwich.bolts] diameter, grade, spacing)",
+            joint.names[b].split(" ")[0],
+            "error",
+        )
+        for b in np.flatnonzero(per_bolt > LIMIT)
+    ]
+    return summary, issues
+
+
+def write_bolts_csv(path: Path, summary: dict) -> None:
+    """One row per bolt: its position, largest shear and tension, bearing resistance,
+    utilisation and governing combination (``summary["rows"]`` of :func:`bolt_checks`)."""
+    rows = summary.get("rows", [])
+    if not rows:
+        return
+    with open(path, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)

@@ -1,0 +1,124 @@
+"""Bolted joints in the structural model: springs between back-to-back ribs, their forces read
+back from CalculiX, and the bolts checked against EN 1993-1-8."""
+
+from __future__ import annotations
+
+import csv
+import shutil
+
+import numpy as np
+import pytest
+from conftest import cylinder_developed
+
+import fabpanel as fp
+from fabpanel.fasteners import bolt_for_hole
+from fabpanel.structure.analysis import analyse
+from fabpanel.structure.ccx import LoadCase, read_dat, run_ccx, write_deck
+from fabpanel.structure.connectors import BoltDesign, station_forces
+from fabpanel.structure.mesh import Material, ShellModel, Springs, patch_model
+
+needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) missing")
+
+
+def test_bolt_stiffness_and_resistances_reproduce_en_1993_1_8_worked_values():
+    """notes/eurocode.md §4.3 and §5.1: M12 8.8 in two 8 mm S235 ribs."""
+    bolt = bolt_for_hole(13.0)
+    design = BoltDesign(bolt, "8.8", t_rib=8.0, gap=0.0, fu_plate=360.0, E=210000.0)
+    assert design.shear_stiffness / 1e3 == pytest.approx(34.2, abs=0.05)
+    assert design.shear_resistance / 1e3 == pytest.approx(32.4, abs=0.05)
+    assert design.tension_resistance / 1e3 == pytest.approx(48.6, abs=0.05)
+    # single-lap cap 1.5 f_u d t / gamma_M2 governs over 2.5 alpha_b f_u d t / gamma_M2
+    assert design.bearing_resistance(250.0) / 1e3 == pytest.approx(41.47, abs=0.01)
+    # close bolts: alpha_b = p1 / (3 d0) - 1/4 = 0.519 -> 2.5 * 0.519 * 360 * 12 * 8 / 1.25
+    assert design.bearing_resistance(30.0) / 1e3 == pytest.approx(35.9, abs=0.1)
+    # axial: 1.6 E A_s / L_b, L_b = 16 + 2 x 2.5 washers + (7.5 + 10.8) / 2
+    assert design.axial_stiffness == pytest.approx(1.6 * 210000 * 84.3 / 30.15, rel=1e-9)
+
+
+@needs_ccx
+@pytest.mark.parametrize("angle", [0.0, 35.0])
+def test_spring_forces_read_back_carry_the_load_across_the_joint(tmp_path, angle):
+    """Two plates joined edge to edge by springs only, pulled apart obliquely: the springs'
+    forces (from their energies) along their local directions add up to the load."""
+    steel = Material()
+    xs, ys = np.linspace(0, 100, 9), np.linspace(0, 40, 5)
+    grid_a = np.stack([*np.meshgrid(xs, ys, indexing="ij"), np.zeros((9, 5))], axis=-1)
+    grid_b = grid_a + [100.0, 0.0, 0.0]
+    a, index_a = patch_model(grid_a, 5.0, steel)
+    b, index_b = patch_model(grid_b, 5.0, steel)
+    offset = len(a.nodes)
+    edge_a, edge_b = index_a[-1], index_b[0] + offset
+    load_nodes, fixed = index_b[-1] + offset, index_a[0]
+    t = np.radians(angle)
+    frame = np.array([[np.cos(t), np.sin(t), 0.0], [-np.sin(t), np.cos(t), 0.0], [0, 0, 1.0]])
+    k = np.array([2.0e5, 4.0e3, 1.0e4])
+    springs = Springs(
+        np.stack([edge_a, edge_b], 1), np.repeat(frame[None], 5, 0), np.tile(k, (5, 1))
+    )
+    model = ShellModel(
+        nodes=np.r_[a.nodes, b.nodes],
+        quads=np.r_[a.quads, b.quads + offset],
+        triangles=np.zeros((0, 6), int),
+        group=np.zeros(len(a.quads) + len(b.quads), int),
+        groups=a.groups,
+        material=steel,
+        supports=fixed,
+        constraints=((np.arange(offset + len(b.nodes)), (3,)),),
+        springs=springs,
+    )
+    forces = np.zeros((len(model.nodes), 3))
+    weights = np.array([1, 4, 2, 4, 1]) / 12.0
+    forces[load_nodes] = np.outer(weights, [600.0, 300.0, 0.0])
+    deck = write_deck(model, tmp_path / "springs.inp", [LoadCase("pull", forces=forces)])
+    run = run_ccx(deck, threads=1)
+    dat = read_dat(run.dat)
+    ids, energy = dat.spring_energy[0]
+    nodes, u = dat.spring_nodes[0]
+    table = np.zeros(15)
+    table[ids - len(model.quads) - 1] = energy
+    disp = dict(zip(nodes.tolist(), u, strict=True))
+    relative = np.array([disp[int(j) + 1] - disp[int(i) + 1] for i, j in springs.nodes])
+    local = station_forces(springs, table.reshape(5, 3), relative)
+    total = np.einsum("cj,cji->i", local, springs.frames)
+    np.testing.assert_allclose(total, [600.0, 300.0, 0.0], atol=0.5)
+
+
+@pytest.fixture(scope="module")
+def joints_compared(tmp_path_factory):
+    developed = cylinder_developed(radius=4000.0, length=2400.0, arc=np.pi / 3)
+    out = {}
+    for joints in ("bolted", "rigid"):
+        job = fp.Job.from_dict({"structure": {"joints": joints, "buckling_convergence": False}})
+        model = fp.build(developed, job, jobs=1)
+        folder = tmp_path_factory.mktemp(joints)
+        out[joints] = (model, analyse(model, job, folder=folder), folder)
+    return out
+
+
+@needs_ccx
+def test_bolted_joints_soften_the_shell_and_every_bolt_is_checked(joints_compared):
+    model, bolted, folder = joints_compared["bolted"]
+    _, rigid, _ = joints_compared["rigid"]
+    assert bolted.analysed and rigid.analysed
+    s, r = bolted.summary, rigid.summary
+    assert s["checks"]["reactions"] and s["checks"]["mass"]
+    # each panel its own rib: no rib of twice the thickness, and the panels share no node
+    assert "RIB2" not in s["mesh"]["groups"] or s["mesh"]["groups"]["RIB2"]["elements"] == 0
+    shell = bolted.shell
+    panel = shell.panel[:, 0]
+    node_panels = [
+        set(panel[np.nonzero((shell.quads == n).any(axis=1))[0]]) for n in range(len(shell.nodes))
+    ]
+    assert max(len(p) for p in node_panels) == 1
+    # the joints are springs now, softer than one shell: larger deflection, lower buckling
+    assert s["deflection"]["max_mm"] > r["deflection"]["max_mm"]
+    assert s["buckling"]["first"] < r["buckling"]["first"]
+    bolts = s["bolts"]
+    holes = sum(1 for p in model.parts if p.kind == "rib" for h in p.holes if h.purpose == "bolt")
+    assert bolts["checked"] and bolts["bolts"] * 2 == holes  # two ribs per bolt
+    assert 0 < bolts["utilisation"] < 1 and s["checks"]["bolts"]
+    with open(folder / "bolts.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == bolts["bolts"]
+    assert max(float(row["utilisation"]) for row in rows) == pytest.approx(bolts["utilisation"])
+    assert r["bolts"]["checked"] is False and "rigid" in r["bolts"]["why"]
