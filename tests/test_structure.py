@@ -209,13 +209,18 @@ def cylinder_model():
     return job, fp.build(developed, job, jobs=1)
 
 
-def test_sandwich_mesh_shares_nodes_and_keeps_the_part_mass(cylinder_model):
+@pytest.mark.parametrize(
+    ("joints", "ribs"), [("rigid", {"RIB": 16, "RIB2": 8}), ("bolted", {"RIB": 32, "RIB2": 0})]
+)
+def test_sandwich_mesh_shares_nodes_and_keeps_the_part_mass(cylinder_model, joints, ribs):
     job, model = cylinder_model
+    job = job.replace(structure={"joints": joints})
     shell = sandwich_model(model.developed, sandwich_settings(job, 2), model.parts)
     names = [g.name for g in shell.groups]
-    # 4 panels (2 x 2): 2 x 4 sheets x 4 elements; 12 rib sides of which 4 shared, 2 elements
+    # 4 panels (2 x 2): 2 x 4 sheets x 4 elements; 12 rib sides of which 4 shared, 2 elements;
+    # rigid: a shared side is one rib shell of twice the thickness, bolted: one rib per panel
     counts = {name: int((shell.group == i).sum()) for i, name in enumerate(names)}
-    assert counts == {"TOP": 16, "BOT": 16, "RIB": 16, "RIB2": 8}
+    assert counts == {"TOP": 16, "BOT": 16, **ribs}
     assert shell.groups[names.index("RIB2")].thickness == 2 * job.sandwich.rib_thickness
     # every rib's top and bottom edge nodes are sheet nodes: the parts share the junction lines
     rib = shell.side >= 0
@@ -242,6 +247,7 @@ def test_sandwich_mesh_shares_nodes_and_keeps_the_part_mass(cylinder_model):
 
 def test_stiffener_masses_and_holes_reach_the_shell_model(cylinder_model):
     job, model = cylinder_model
+    job = job.replace(structure={"joints": "rigid"})  # the corner lines shared by 4 panels
     top = next(p for p in model.parts if p.id == "P001-TOP")
     holed = replace(top, holes=(Hole((0.0, 0.0), 40.0, "access"),) * 10)
     stiffeners = tuple(

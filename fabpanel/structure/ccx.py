@@ -230,8 +230,9 @@ def write_deck(
 
 
 def _spring_cards(springs, first: int) -> list[str]:
-    """``SPRING2`` elements (numbered from ``first + 1``), three per node pair, one per local
-    direction, each pair with its own ``*ORIENTATION`` (its frame's rows 1 and 2)."""
+    """``SPRING2`` elements, one per node pair and local direction of non-zero stiffness
+    (pair ``c``, direction ``d`` is element ``first + 3 c + d + 1``), each pair with its own
+    ``*ORIENTATION`` (its frame's rows 1 and 2)."""
     out: list[str] = []
     for c, ((a, b), frame, k) in enumerate(
         zip(springs.nodes, springs.frames, springs.stiffness, strict=True)
@@ -241,16 +242,16 @@ def _spring_cards(springs, first: int) -> list[str]:
             f"*ORIENTATION, NAME=OS{c + 1}",
             ", ".join(f"{v:.12g}" for v in (*x, *y)),
         ]
-        for d in range(3):
+        for d in np.flatnonzero(k > 0):
             element = first + 3 * c + d + 1
             out += [
                 f"*ELEMENT, TYPE=SPRING2, ELSET=ES{c + 1}_{d + 1}",
                 f"{element}, {a + 1}, {b + 1}",
                 f"*SPRING, ELSET=ES{c + 1}_{d + 1}, ORIENTATION=OS{c + 1}",
                 f"{d + 1}, {d + 1}",
-                f"{max(float(k[d]), 1e-6):.9e}",
+                f"{float(k[d]):.9e}",
             ]
-    elements = first + 1 + np.arange(3 * len(springs.nodes))
+    elements = first + 1 + np.flatnonzero(springs.stiffness.ravel() > 0)
     out += ["*ELSET, ELSET=ESPR", _ids(elements - 1)]
     out += ["*NSET, NSET=NSPR", _ids(np.unique(springs.nodes))]
     return out

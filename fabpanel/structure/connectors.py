@@ -161,13 +161,14 @@ def attach(shell: ShellModel, model, job) -> tuple[ShellModel, JointBolts | None
 
 @dataclass(frozen=True)
 class JointBolts:
-    """The bolts of the model's joints and the stations they are shared between.
+    """The bolts of the model's joints and the springs they are shared between.
 
     names : (b,) str, ``P012-RIB-1 bolt 2`` (the lower-numbered panel's rib).
     points : (b, 3) float, mm.
-    stations : (b, 2) int, the two springs (rows of ``Springs``) either side of each bolt.
-    weights : (b, 2) float, each bolt's share of them (summing to 1).
-    pitch : (b,) float, mm, distance to the nearest other bolt of its joint (its own side's
+    stations : (b, 2, 3) int, the springs (rows of ``Springs``) at the two stations either
+        side of each bolt: at the top sheet, at mid-depth, at the bottom sheet (-1: none).
+    weights : (b, 2) float, each bolt's share of the two stations (summing to 1).
+    pitch : (b,) float, mm, distance to the nearest other bolt of its joint (its side's
         length for a lone bolt).
     """
 
@@ -176,6 +177,56 @@ class JointBolts:
     stations: np.ndarray
     weights: np.ndarray
     pitch: np.ndarray
+
+
+class _SpringList:
+    """Springs gathered joint by joint: per station, the bolt axis at the two sheets (half the
+    axial stiffness each: the joint's bending, see the module docstring) and shear at
+    mid-depth."""
+
+    def __init__(self, design: BoltDesign) -> None:
+        self.design = design
+        self.pairs: list[tuple[int, int]] = []
+        self.frames: list[np.ndarray] = []
+        self.stiffness: list[tuple[float, float, float]] = []
+
+    def add_joint(
+        self,
+        mine: np.ndarray,
+        theirs: np.ndarray,
+        line: np.ndarray,
+        axis: np.ndarray,
+        shares: np.ndarray,
+    ) -> np.ndarray:
+        """Springs between the stations ``mine`` and ``theirs`` ((n + 1, 3) nodes: top, mid,
+        bottom; ``line`` the mid nodes' points) carrying ``shares (n + 1,)`` bolts each, the
+        bolt ``axis`` the rib plane's normal; returns their rows, (n + 1, 3)."""
+        rows = np.full(mine.shape, -1)
+        axial, shear = self.design.axial_stiffness, self.design.shear_stiffness
+        last = len(line) - 1
+        for j in (int(i) for i in np.flatnonzero(shares > 0)):
+            tangent = line[min(j + 1, last)] - line[max(j - 1, 0)]
+            tangent = tangent - (tangent @ axis) * axis
+            tangent /= np.linalg.norm(tangent)
+            frame = np.stack([axis, tangent, np.cross(axis, tangent)])
+            k = shares[j]
+            for level, stiffness in (
+                (0, (k * axial / 2, 0.0, 0.0)),
+                (1, (0.0, k * shear, k * shear)),
+                (2, (k * axial / 2, 0.0, 0.0)),
+            ):
+                rows[j, level] = len(self.pairs)
+                self.pairs.append((int(mine[j, level]), int(theirs[j, level])))
+                self.frames.append(frame)
+                self.stiffness.append(stiffness)
+        return rows
+
+    def springs(self) -> Springs:
+        return Springs(
+            nodes=np.asarray(self.pairs, int).reshape(-1, 2),
+            frames=np.asarray(self.frames, float).reshape(-1, 3, 3),
+            stiffness=np.asarray(self.stiffness, float).reshape(-1, 3),
+        )
 
 
 def joint_springs(
@@ -190,9 +241,7 @@ def joint_springs(
     planes = np.asarray(developed.side_planes, float)
     holes = _rib_holes(parts)
     ids = list(developed.panel_ids)
-    pairs: list[tuple[int, int]] = []
-    frames: list[np.ndarray] = []
-    stiffness: list[tuple[float, float, float]] = []
+    gathered = _SpringList(design)
     names: list[str] = []
     points, rows, weights, pitches = [], [], [], []
     for p, s in zip(*np.nonzero(neighbours >= 0), strict=True):
@@ -200,9 +249,8 @@ def joint_springs(
         if q < p:
             continue
         mine = stations[p, s]
-        t = _matching_side(neighbours, q, p, s, stations, shell.nodes)
-        theirs = stations[q, t][::-1]
-        line = shell.nodes[mine]
+        t = _matching_side(neighbours, q, p, s, stations[..., 1], shell.nodes)
+        line = shell.nodes[mine[:, 1]]
         along = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))]
         bolts = _bolts_of_joint(holes, ids[p], s, ids[q], t, line, along, spacing, edge)
         position = _arc_position(line, along, bolts)
@@ -213,45 +261,31 @@ def joint_springs(
         np.add.at(per_station, lower, w[:, 0])
         np.add.at(per_station, lower + 1, w[:, 1])
         axis = planes[p, s, :3] / np.linalg.norm(planes[p, s, :3])
-        first = len(pairs)
-        for j in np.flatnonzero(per_station > 0):
-            tangent = line[min(j + 1, len(line) - 1)] - line[max(j - 1, 0)]
-            tangent -= (tangent @ axis) * axis
-            tangent /= np.linalg.norm(tangent)
-            pairs.append((mine[j], theirs[j]))
-            frames.append(np.stack([axis, tangent, np.cross(axis, tangent)]))
-            k = per_station[j]
-            stiffness.append(
-                (k * design.axial_stiffness, k * design.shear_stiffness, k * design.shear_stiffness)
-            )
-        row_of = np.full(len(mine), -1)
-        row_of[per_station > 0] = first + np.arange(int((per_station > 0).sum()))
-        gaps = np.diff(np.sort(position))
-        near = np.full(len(position), along[-1])
-        if len(position) > 1:
-            order = np.argsort(position)
-            left = np.r_[np.inf, gaps]
-            right = np.r_[gaps, np.inf]
-            near[order] = np.minimum(left, right)
-        for b in range(len(position)):
-            names.append(f"{ids[p]}-RIB-{s} bolt {b}")
-            points.append(bolts[b])
-            rows.append((row_of[lower[b]], row_of[lower[b] + 1]))
-            weights.append(w[b])
-            pitches.append(near[b])
-    springs = Springs(
-        nodes=np.asarray(pairs, int).reshape(-1, 2),
-        frames=np.asarray(frames, float).reshape(-1, 3, 3),
-        stiffness=np.asarray(stiffness, float).reshape(-1, 3),
-    )
-    bolts_of = JointBolts(
+        row_of = gathered.add_joint(mine, stations[q, t][::-1], line, axis, per_station)
+        names += [f"{ids[p]}-RIB-{s} bolt {b}" for b in range(len(position))]
+        points.append(bolts)
+        rows.append(np.stack([row_of[lower], row_of[lower + 1]], axis=1))
+        weights.append(w)
+        pitches.append(_nearest_other(position, float(along[-1])))
+    joint = JointBolts(
         names=tuple(names),
-        points=np.asarray(points, float).reshape(-1, 3),
-        stations=np.asarray(rows, int).reshape(-1, 2),
-        weights=np.asarray(weights, float).reshape(-1, 2),
-        pitch=np.asarray(pitches, float),
+        points=np.concatenate(points) if points else np.zeros((0, 3)),
+        stations=np.concatenate(rows) if rows else np.zeros((0, 2, 3), int),
+        weights=np.concatenate(weights) if weights else np.zeros((0, 2)),
+        pitch=np.concatenate(pitches) if pitches else np.zeros(0),
     )
-    return springs, bolts_of
+    return gathered.springs(), joint
+
+
+def _nearest_other(position: np.ndarray, length: float) -> np.ndarray:
+    """(b,) float: each bolt's distance to the nearest other along its side (the side's
+    ``length`` for a lone bolt)."""
+    near = np.full(len(position), length)
+    if len(position) > 1:
+        order = np.argsort(position)
+        gaps = np.diff(position[order])
+        near[order] = np.minimum(np.r_[np.inf, gaps], np.r_[gaps, np.inf])
+    return near
 
 
 def _matching_side(neighbours, q: int, p: int, s: int, stations, nodes) -> int:
@@ -312,13 +346,20 @@ def station_forces(springs: Springs, energy: np.ndarray, relative: np.ndarray) -
 def bolt_forces(
     springs: Springs, bolts: JointBolts, forces: np.ndarray, design: BoltDesign
 ) -> np.ndarray:
-    """(b, 3) float, N: each bolt's force along its stations' local directions (1: along its
-    axis, positive pulling the ribs apart; 2, 3: shear), from the stations' ``forces (c, 3)``:
-    the bolt's interpolated relative displacement times its own stiffness."""
+    """(b, 3) float, N: each bolt's force from the stations' spring ``forces (c, 3)``: along
+    its axis (positive: tension), along the rib and across it (shear). Each is the bolt's
+    interpolated relative displacement times its stiffness; the tension is that of a bolt
+    row with the ribs bearing on each other at the compressed sheet, ``N + |M| / (h / 2)``,
+    which is twice the larger of the two sheet-level axial forces."""
     k = springs.stiffness
     slip = np.divide(forces, k, out=np.zeros_like(forces), where=k > 0)  # (c, 3) mm
-    rows = np.maximum(bolts.stations, 0)
-    valid = (bolts.stations >= 0)[..., None]
-    moved = (slip[rows] * valid * bolts.weights[..., None]).sum(axis=1)  # (b, 3)
-    own = np.array([design.axial_stiffness, design.shear_stiffness, design.shear_stiffness])
-    return moved * own
+
+    def at_bolt(level: int, direction: int) -> np.ndarray:
+        rows = bolts.stations[:, :, level]
+        valid = rows >= 0
+        return (slip[np.maximum(rows, 0), direction] * valid * bolts.weights).sum(axis=1)
+
+    half = design.axial_stiffness / 2
+    axial = 2 * np.maximum(at_bolt(0, 0) * half, at_bolt(2, 0) * half)
+    shear = design.shear_stiffness
+    return np.stack([axial, at_bolt(1, 1) * shear, at_bolt(1, 2) * shear], axis=1)

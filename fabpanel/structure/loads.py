@@ -148,6 +148,8 @@ def _loaded_points(model: ShellModel, pressure, elements: np.ndarray | None):
     pressure ``(E,)`` or scalar, zero outside ``elements``."""
     mask = np.ones(model.n_elements, bool) if elements is None else np.asarray(elements, bool)
     pressure = np.broadcast_to(np.asarray(pressure, float), (model.n_elements,))
+    if model.load_scale is not None:
+        pressure = pressure * model.load_scale
     start = 0
     for conn, shape, area, normal in integration_points(model):
         sl = slice(start, start + len(conn))
@@ -175,7 +177,8 @@ def gravity_forces(model: ShellModel, acceleration=(0.0, 0.0, -GRAVITY)) -> np.n
     g = np.linalg.norm(acceleration)
     # kg/mm3 * mm * mm/s2 = kg/(mm s2) per mm2 ... 1 kg mm/s2 = 1e-3 N
     per_area = model.density * model.thickness * g * 1e-3
-    forces = area_forces(model, per_area, acceleration)
+    # the elements' own mass: no load scaling (that spreads area loads over a joint's strip)
+    forces = area_forces(model.replace(load_scale=None), per_area, acceleration)
     if model.lumped_mass is not None:
         forces += model.lumped_mass[:, None] * acceleration[None] * 1e-3
     return forces

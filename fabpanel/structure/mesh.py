@@ -120,10 +120,15 @@ class ShellModel:
         the panel(s) each element belongs to (second column -1 unless a merged rib).
     side : (e + f,) int or None
         rib side within ``panel[:, 0]`` (-1 for sheets).
-    rib_stations : (m, 4, n + 1) int or None
-        per panel side, the rib's mid-depth nodes from corner ``s`` to ``s + 1`` (-1 where the
-        side has no rib of its own: the neighbour's, in a rigid model).
+    rib_stations : (m, 4, n + 1, 3) int or None
+        per panel side, the rib's nodes at its stations (element corners) from corner ``s`` to
+        ``s + 1``: on the top sheet, at mid-depth, on the bottom sheet (-1 where the side has
+        no rib of its own: the neighbour's, in a rigid model).
     springs : the bolted joints' connectors (:class:`Springs`) or None.
+    load_scale : (e + f,) float or None
+        area loads (snow, wind) on an element are multiplied by it: a bolted model's sheets
+        stop at their ribs' mid-planes, and the load on the strip over the joint is spread
+        over its panel's sheet (its whole area over its modelled area).
     """
 
     nodes: np.ndarray
@@ -139,6 +144,7 @@ class ShellModel:
     side: np.ndarray | None = None
     rib_stations: np.ndarray | None = None
     springs: Springs | None = None
+    load_scale: np.ndarray | None = None
 
     @property
     def n_elements(self) -> int:
@@ -323,8 +329,11 @@ def sandwich_model(
     nrm /= np.linalg.norm(nrm, axis=-1, keepdims=True)
     neighbours = np.asarray(developed.layout.side_neighbours)
     bolted = settings.joints == "bolted" and settings.buildup == "sandwich"
+    area_scale = np.ones(m)
     if bolted:
+        whole = _grid_areas(grid)
         grid = _edges_moved_in(grid, neighbours >= 0, settings.joint_offset)
+        area_scale = whole / _grid_areas(grid)
     off = settings.offsets
     top = grid + (off["top_outer"] - settings.t_top / 2) * nrm
     sandwich = settings.buildup == "sandwich"
@@ -393,8 +402,8 @@ def sandwich_model(
     quads = _orient_sheets(nodes, quads, group, panel[:, 0], grid, nrm, n)
     stations = None
     if sandwich:
-        stations = np.full((m, 4, n + 1), -1)
-        stations[p_idx, s_idx] = old_to_new[m_id]
+        stations = np.full((m, 4, n + 1, 3), -1)
+        stations[p_idx, s_idx] = old_to_new[np.stack([t_id[:, ::2], m_id, b_id[:, ::2]], axis=-1)]
     groups = [
         ShellGroup("TOP", settings.t_top),
         ShellGroup("BOT", settings.t_bot),
@@ -411,9 +420,19 @@ def sandwich_model(
         panel=panel,
         side=side,
         rib_stations=stations,
+        load_scale=np.where(side < 0, area_scale[panel[:, 0]], 1.0) if bolted else None,
     )
     built = np.ones(m, bool) if built is None else np.asarray(built, bool)
     return _mass_corrections(model, developed, settings, parts, grid, nrm, built)
+
+
+def _grid_areas(grid: np.ndarray) -> np.ndarray:
+    """(m,) float: the area of each panel's (q, q, 3) grid, two triangles per cell, mm2."""
+    a, b, c, d = grid[:, :-1, :-1], grid[:, 1:, :-1], grid[:, 1:, 1:], grid[:, :-1, 1:]
+    double = np.linalg.norm(np.cross(b - a, c - a), axis=-1) + np.linalg.norm(
+        np.cross(c - a, d - a), axis=-1
+    )
+    return 0.5 * double.sum(axis=(1, 2))
 
 
 def _edges_moved_in(grid: np.ndarray, moved: np.ndarray, offset: float) -> np.ndarray:

@@ -126,7 +126,8 @@ def check_supports(nodes: np.ndarray, supports: np.ndarray, what: str) -> None:
 # --------------------------------------------------------------------------------------------
 def support_regions(shell: ShellModel) -> tuple[np.ndarray, np.ndarray]:
     """The support of each supported node ``(s,)`` int (0-based, ordered by centroid) in the
-    order of ``shell.supports``, and the supports' centroids ``(k, 3)``."""
+    order of ``shell.supports``, and the supports' centroids ``(k, 3)``: the supported nodes
+    joined by elements or by a bolted joint's springs."""
     supports = np.asarray(shell.supports)
     index = np.full(len(shell.nodes), -1)
     index[supports] = np.arange(len(supports))
@@ -144,7 +145,16 @@ def support_regions(shell: ShellModel) -> tuple[np.ndarray, np.ndarray]:
         (np.ones(int(keep.sum())), (owner[keep], index[conn[keep]])),
         shape=(shell.n_elements, len(supports)),
     ).tocsr()
-    _, labels = connected_components(incidence.T @ incidence, directed=False)
+    linked = incidence.T @ incidence
+    if shell.springs is not None and len(shell.springs.nodes):
+        # a bolted joint's springs tie the two panels' ribs: one support runs across it
+        a, b = index[shell.springs.nodes[:, 0]], index[shell.springs.nodes[:, 1]]
+        both = (a >= 0) & (b >= 0)
+        tied = coo_matrix(
+            (np.ones(int(both.sum())), (a[both], b[both])), shape=(len(supports),) * 2
+        )
+        linked = linked + tied + tied.T
+    _, labels = connected_components(linked, directed=False)
     centroids = np.array(
         [shell.nodes[supports[labels == k]].mean(axis=0) for k in range(labels.max() + 1)]
     )
