@@ -81,6 +81,11 @@ def test_spring_forces_read_back_carry_the_load_across_the_joint(tmp_path, angle
     local = station_forces(springs, table.reshape(5, 3), relative)
     total = np.einsum("cj,cji->i", local, springs.frames)
     np.testing.assert_allclose(total, [600.0, 300.0, 0.0], atol=0.5)
+    # hand calculation of the lap: the plates are ~40 times stiffer in plane than the springs,
+    # so the five share the load evenly and slip by F / (5 k) along each local direction
+    load = frame @ np.array([600.0, 300.0, 0.0])
+    slip = np.einsum("cij,cj->ci", springs.frames, relative).mean(axis=0)
+    np.testing.assert_allclose(slip[:2], load[:2] / (5 * k[:2]), rtol=0.03)
 
 
 @pytest.fixture(scope="module")
@@ -120,5 +125,7 @@ def test_bolted_joints_soften_the_shell_and_every_bolt_is_checked(joints_compare
     with open(folder / "bolts.csv") as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == bolts["bolts"]
+    # one worst bolt per joint: 4 shared sides of the 2 x 2 panels
+    assert bolts["joints"] == 4 and sum(row["worst_in_joint"] == "True" for row in rows) == 4
     assert max(float(row["utilisation"]) for row in rows) == pytest.approx(bolts["utilisation"])
     assert r["bolts"]["checked"] is False and "rigid" in r["bolts"]["why"]

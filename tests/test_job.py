@@ -145,10 +145,12 @@ def test_serialised_defaults_keep_their_units():
         "tool": "ring-spanner",
         "tool_swing": 30.0,
         "fit": "normal",
+        "grade": "8.8",
     }
     assert data["sandwich"]["welds"] == {"snipe": "15 mm", "erection_gap": "0 mm"}
     assert data["cutting"]["hole_tolerance"] == "0.5 mm"
     assert data["material"]["E"] == "210000 MPa"
+    assert data["material"]["fu"] == "360 MPa"
     assert data["material"]["density"] == "7.85e-06 kg/mm3"
     assert data["loads"]["snow"] == "0.00056 N/mm2"
     assert data["structure"]["timeout"] == "1800 s"

@@ -127,6 +127,20 @@ def utilisation_figure(structure) -> str:
     return data
 
 
+def _bolts_row(bolts: dict, ok) -> str:
+    """The joint bolts' check in one line (or why there is none)."""
+    if not bolts.get("checked"):
+        return str(bolts.get("why", "not checked"))
+    g, r = bolts["governing"], bolts["resistance_kN"]
+    return (
+        f"{bolts['bolts']} bolts {bolts['bolt']}, largest shear {bolts['max_shear_kN']} kN "
+        f"(F_v,Rd {r['shear']} kN, F_b,Rd from {r['bearing_min']} kN), tension "
+        f"{bolts['max_tension_kN']} kN (F_t,Rd {r['tension']} kN); utilisation "
+        f"{bolts['utilisation']} at {g['bolt']} ({g['check']}, {g['combination']}); every "
+        f"bolt in structure/bolts.csv: {ok(bolts['ok'])}"
+    )
+
+
 def structure_section(result) -> str:
     """HTML of the structure section: key checks, figures, load cases, per-panel table."""
     from .html import _fmt, _table
@@ -182,6 +196,7 @@ def structure_section(result) -> str:
             ),
         ),
         ("stiffeners", mesh["stiffeners"]),
+        ("joint bolts", _bolts_row(summary.get("bolts", {}), ok)),
     ]
     if b.get("note"):
         rows.append(("buckling note", b["note"]))

@@ -59,11 +59,22 @@ def assumptions(job, reference_height_m: float | None, sprung: int) -> list[str]
                 f"{loads.psi0_wind:g}; SLS characteristic"
             ),
         ]
+    if st.joints == "bolted":
+        out.append(
+            "bolted joints: each panel's ribs and sheets are its own shells, the back-to-back "
+            "ribs joined at the bolts by linear springs (EN 1993-1-8 Table 6.11: shear k_11 in "
+            "series with bearing k_12 in both ribs, k_b = 1.25; the bolt's axial k_10 split "
+            "between the two sheet levels, so the joint bends about the compressed sheet); "
+            "clearance slip of the snug-tight bolts not modelled; contact in compression as "
+            "stiff as the bolt (softer than it is); bolts checked for shear, bearing (single "
+            "lap cap) and tension, category A/D, with the tension of a bolt row N + |M| / (h/2)"
+        )
+    else:
+        out.append(
+            'bolted joints NOT modelled ([structure] joints = "rigid"): back-to-back ribs are '
+            "one continuous shell of twice the rib thickness; bolts not checked"
+        )
     out += [
-        (
-            "bolted joints NOT modelled: back-to-back ribs are one continuous shell of twice the "
-            "rib thickness (rigid joints); bolt shear, bearing and tension are not checked"
-        ),
         "rib-to-sheet welds are not checked; corner stiffeners are mass only (no stiffness)",
         (
             f"supports: {st.supports} boundary ribs, {st.support_fixity} at their anchor-bolt "

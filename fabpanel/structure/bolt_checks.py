@@ -1,6 +1,6 @@
 """Every joint bolt checked under every ULS combination (EN 1993-1-8 Table 3.4; the model and
 the resistances in :mod:`.connectors`), with a per-bolt table for the engineer
-(``structure/bolts.csv``)."""
+(``structure/bolts.csv``: each bolt's joint, the worst bolt of each joint marked)."""
 
 from __future__ import annotations
 
@@ -81,9 +81,17 @@ def bolt_checks(
     which = ("shear", "bearing", "tension", "shear and tension")[
         int(np.argmax(util[:, k_max, b_max]))
     ]
+    joint_of = [name.split(" ")[0] for name in joint.names]
+    worst_of: dict[str, int] = {}
+    for b, name in enumerate(joint_of):
+        if name not in worst_of or per_bolt[b] > per_bolt[worst_of[name]]:
+            worst_of[name] = b
+    worst_in_joint = set(worst_of.values())
     rows = [
         {
             "bolt": joint.names[b],
+            "joint": joint_of[b],
+            "worst_in_joint": b in worst_in_joint,
             "x_mm": round(float(joint.points[b, 0]), 1),
             "y_mm": round(float(joint.points[b, 1]), 1),
             "z_mm": round(float(joint.points[b, 2]), 1),
@@ -109,6 +117,7 @@ def bolt_checks(
             "tension": round(f_t / 1e3, 2),
             "bearing_min": round(float(f_b.min()) / 1e3, 2),
         },
+        "joints": len(worst_of),
         "max_shear_kN": round(float(shear.max()) / 1e3, 3),
         "max_tension_kN": round(float(tension.max()) / 1e3, 3),
         "utilisation": round(float(per_bolt[b_max]), 4),

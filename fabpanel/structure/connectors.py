@@ -3,11 +3,16 @@ every bolt's forces checked against EN 1993-1-8.
 
 **Model.** With ``[structure] joints = "bolted"`` each panel's ribs are their own shells on
 their own mid-planes and its sheets stop there (:mod:`.mesh`): the two panels of a joint share
-no node. They are joined at the rib's mid-depth nodes ("stations", ``n + 1`` per side) by
+no node. They are joined at the rib's element corners ("stations", ``n + 1`` per side) by
 ``SPRING2`` elements in the joint's frame: direction 1 along the bolt axis (the rib plane's
-normal), 2 along the rib line, 3 across it in the rib plane. Each bolt's stiffness is shared
-between the two stations either side of it in proportion to its distance from them (linear
-interpolation along the side), so a station carries the bolts near it. The bolts are the built
+normal), 2 along the rib line, 3 across it in the rib plane. At each station the shear springs
+(2, 3) join the mid-depth nodes; the axial stiffness is split in halves at the two sheet-level
+nodes. So the joint has the bolt's axial stiffness in tension, and in bending about the rib
+line the bolt row's about the compressed sheet, where the ribs bear on each other
+(``k_10 (h/2)^2``); axial springs at mid-depth alone made every joint a hinge (a vault at one
+element per side buckled at 0.86). Each bolt's stiffness is shared between the two stations
+either side of it in proportion to its distance from them (linear interpolation along the
+side), so a station carries the bolts near it. The bolts are the built
 ribs' holes (their positions after any move for the tool); a panel not built takes its
 neighbour's rib, a joint with neither the job's spacing.
 
@@ -29,7 +34,8 @@ the report says so.
 **Forces.** CalculiX prints no spring forces, but it prints each spring element's internal
 energy ``E = F^2 / 2k``: the magnitude of a station's force is ``sqrt(2 k E)``, its sign that of
 the stations' relative displacement (printed too). A bolt's force is the interpolated relative
-displacement times its stiffness.
+displacement times its stiffness; its tension, with the ribs bearing at the compressed sheet,
+``N + |M| / (h/2) = 2 max(F_top, F_bottom)`` of the two sheet-level axial forces.
 
 **Checks** (EN 1993-1-8 Table 3.4, category A bearing type and D tension, not preloaded), per
 bolt and ULS combination: shear ``F_v,Rd = alpha_v f_ub A_s / gamma_M2`` (shear plane through
