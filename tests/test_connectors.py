@@ -13,6 +13,7 @@ from conftest import cylinder_developed
 import fabpanel as fp
 from fabpanel.fasteners import bolt_for_hole
 from fabpanel.structure.analysis import analyse
+from fabpanel.structure.bolt_checks import corrected_reactions
 from fabpanel.structure.ccx import LoadCase, read_dat, run_ccx, write_deck
 from fabpanel.structure.connectors import BoltDesign, station_forces
 from fabpanel.structure.mesh import Material, ShellModel, Springs, patch_model
@@ -36,10 +37,12 @@ def test_bolt_stiffness_and_resistances_reproduce_en_1993_1_8_worked_values():
 
 
 @needs_ccx
-@pytest.mark.parametrize("angle", [0.0, 35.0])
-def test_spring_forces_read_back_carry_the_load_across_the_joint(tmp_path, angle):
+@pytest.mark.parametrize(("angle", "held_at_springs"), [(0.0, False), (35.0, False), (35.0, True)])
+def test_spring_forces_read_back_carry_the_load_across_the_joint(tmp_path, angle, held_at_springs):
     """Two plates joined edge to edge by springs only, pulled apart obliquely: the springs'
-    forces (from their energies) along their local directions add up to the load."""
+    forces (from their energies) along their local directions add up to the load. Held at
+    the springs' own nodes, the reactions balance the load once the springs' pull is taken
+    off CalculiX's RF there."""
     steel = Material()
     xs, ys = np.linspace(0, 100, 9), np.linspace(0, 40, 5)
     grid_a = np.stack([*np.meshgrid(xs, ys, indexing="ij"), np.zeros((9, 5))], axis=-1)
@@ -48,7 +51,7 @@ def test_spring_forces_read_back_carry_the_load_across_the_joint(tmp_path, angle
     b, index_b = patch_model(grid_b, 5.0, steel)
     offset = len(a.nodes)
     edge_a, edge_b = index_a[-1], index_b[0] + offset
-    load_nodes, fixed = index_b[-1] + offset, index_a[0]
+    load_nodes, fixed = index_b[-1] + offset, (edge_a if held_at_springs else index_a[0])
     t = np.radians(angle)
     frame = np.array([[np.cos(t), np.sin(t), 0.0], [-np.sin(t), np.cos(t), 0.0], [0, 0, 1.0]])
     k = np.array([2.0e5, 4.0e3, 1.0e4])
@@ -86,6 +89,10 @@ def test_spring_forces_read_back_carry_the_load_across_the_joint(tmp_path, angle
     load = frame @ np.array([600.0, 300.0, 0.0])
     slip = np.einsum("cij,cj->ci", springs.frames, relative).mean(axis=0)
     np.testing.assert_allclose(slip[:2], load[:2] / (5 * k[:2]), rtol=0.03)
+    reaction = corrected_reactions(model, dat).forces[0]
+    if held_at_springs:  # without the correction the reported RF does not balance the load
+        assert np.abs(dat.forces[0][:2] - reaction[:2]).max() > 100.0
+    np.testing.assert_allclose(reaction[:2], [-600.0, -300.0], atol=0.5)
 
 
 @pytest.fixture(scope="module")

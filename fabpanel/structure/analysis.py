@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import FabpanelError, GeometryError, Issue
 from . import ccx
 from .assumptions import assumptions
-from .bolt_checks import bolt_checks, write_bolts_csv
+from .bolt_checks import bolt_checks, corrected_reactions, write_bolts_csv
 from .bolt_layout import bolt_layout
 from .cases import load_cases, reference_height
 from .checks import (
@@ -254,7 +254,7 @@ def _analyse(
 
     # ---- static cases ----------------------------------------------------------------------
     run = run_static(shell, cases, folder, threads, st.timeout, executable)
-    dat, disp, stress = run.dat, run.displacement, run.stress
+    dat, disp, stress = corrected_reactions(shell, run.dat), run.displacement, run.stress
     bottom, top, knots = run.bottom, run.top, run.knots
     el_panel, el_side = panel_labels(shell)
     junction = np.zeros(len(shell.nodes), bool)
