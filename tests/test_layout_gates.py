@@ -163,8 +163,8 @@ def test_auto_keeps_a_field_layout_that_passes_every_gate_without_making_the_oth
 
 
 def test_auto_compares_both_methods_when_the_field_layout_fails_a_gate(tmp_path):
-    # canopy4's field layout has 93 % of its corners within 60-120 degrees (95 % wanted)
-    layout = fp.panelize(_hard_shape("canopy4", tmp_path), _job("1 m"))
+    # the funnel's field layout puts a boundary vertex of one panel on a smooth lobe (165°)
+    layout = fp.panelize(_hard_shape("funnel", tmp_path), _job("1 m"))
     auto = layout.metrics["auto"]
     assert set(auto["scores"]) == {"skeleton", "field"}
     assert auto["chosen"] == layout.method == "field"
@@ -284,6 +284,21 @@ def test_sliding_boundary_nodes_bring_every_corner_within_45_to_135_degrees(tmp_
     assert gates["shortest_edge_vs_panel_size"] >= 0.3  # wavy_strip: 50 mm before its
     # cut corners (two 40-degree turns 150 mm apart) became one corner each
     assert layout.metrics["field"]["relaxation"]["vertices_sliding"] > 20
+
+
+@pytest.mark.parametrize("name", ["canopy4", "quarry"])
+def test_holding_the_gate_bands_passes_every_gate_where_squaring_alone_did_not(tmp_path, name):
+    # squaring alone: canopy4 93 % of corners in 60-120° (its 14 valence-3 vertices at 120°
+    # each, half a fraction over), edges 89.5 % in band; quarry corners down to 40°
+    layout = fp.panelize(_hard_shape(name, tmp_path), _job("1 m", method="field"))
+    gates = layout.metrics["gates"]
+    band = layout.metrics["field"]["relaxation"]["gate_band"]
+    assert band["kept"] and band["score_after"] > band["score_before"]
+    assert gates["corners_in_45_135"] == 1.0  # measured 46-134°
+    assert gates["corners_in_60_120"] >= 0.95  # measured 0.955, 0.964
+    assert gates["edges_in_band"] >= 0.9  # measured 0.949, 0.957
+    assert gates["shortest_edge_vs_panel_size"] >= 0.3
+    assert gates["count_ratio"] <= 1.3
 
 
 # ---------------------------------------------------------------------------------------------

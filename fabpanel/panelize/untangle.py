@@ -29,6 +29,7 @@ import logging
 import numpy as np
 from scipy.optimize import minimize
 
+from .gate_band import GateBand
 from .slide import SlidingNodes
 
 log = logging.getLogger(__name__)
@@ -76,9 +77,17 @@ def _positions(
 
 
 def _energy_and_gradient(
-    x: np.ndarray, base: np.ndarray, free: np.ndarray, ids, scale, eps: float, sliding=None
+    x: np.ndarray,
+    base: np.ndarray,
+    free: np.ndarray,
+    ids,
+    scale,
+    eps: float,
+    sliding: SlidingNodes | None = None,
+    band: GateBand | None = None,
 ) -> tuple[float, np.ndarray]:
-    """The energy and its gradient; ``scale`` is one reference size or one per corner."""
+    """The energy and its gradient; ``scale`` is one reference size or one per corner;
+    ``band`` adds the penalty on corners and edges outside their limits (:mod:`.gate_band`)."""
     centre, nxt, prev = ids
     p, tangents = _positions(x, base, free, sliding)
     per_corner = np.ndim(scale) > 0
@@ -97,6 +106,11 @@ def _energy_and_gradient(
     # d det / d a = (b_y, -b_x), d det / d b = (-a_y, a_x)
     grad_a = 2.0 * d_trace[:, None] * a + d_det[:, None] * np.stack([b[:, 1], -b[:, 0]], axis=1)
     grad_b = 2.0 * d_trace[:, None] * b + d_det[:, None] * np.stack([-a[:, 1], a[:, 0]], axis=1)
+    if band is not None:  # on the scaled edges: lengths relative to the reference size
+        penalty, band_a, band_b = band.energy(a, b)
+        energy += penalty
+        grad_a += band_a
+        grad_b += band_b
     if per_corner:  # the chain rule's 1 / scale, per corner before the sums
         grad_a, grad_b = grad_a / s, grad_b / s
     n = len(base)
@@ -126,6 +140,9 @@ def untangle(
     tolerance: float = 1e-6,
     reference: np.ndarray | None = None,
     sliding: SlidingNodes | None = None,
+    band: GateBand | None = None,
+    max_outer: int = MAX_OUTER,
+    max_inner: int = INNER_ITERATIONS,
 ) -> tuple[np.ndarray, dict]:
     """Fold-free, evenly shaped positions of the movable vertices of a planar quad mesh.
 
@@ -134,6 +151,9 @@ def untangle(
     reference : (m,) float, each quad's reference side length (a size field, e.g. on a
         flattening whose scale varies); default one size for all, from the mean panel area.
     sliding : boundary vertices (not movable) that move along the boundary (:mod:`.slide`).
+    band : limits of every corner's angle and edge's length, kept by a penalty (:mod:`.gate_band`).
+    max_outer : outer iterations at most (a start that is not folded needs one or two).
+    max_inner : L-BFGS iterations at most in each outer iteration.
     tolerance : relative energy change that ends the outer loop once nothing is folded.
     Returns ``(vertices (n, 2), info)``; ``info`` has ``folded_before``, ``folded_after``
     (corners with a non-positive determinant), ``outer_iterations`` and ``energy``.
@@ -163,7 +183,7 @@ def untangle(
     previous = np.inf
     energy = np.inf
     outer = 0
-    for outer in range(1, MAX_OUTER + 1):
+    for outer in range(1, max_outer + 1):
         p, _ = _positions(x, vertices2d, movable, sliding)
         worst = float(corner_determinants(p, quads).min()) / scale**2
         # the paper's schedule: eps follows the worst fold, tiny once nothing is folded
@@ -171,11 +191,11 @@ def untangle(
         result = minimize(
             _energy_and_gradient,
             x,
-            args=(vertices2d, movable, ids, sizes, eps, sliding),
+            args=(vertices2d, movable, ids, sizes, eps, sliding, band),
             jac=True,
             method="L-BFGS-B",
             bounds=bounds if sliding is not None else None,
-            options={"maxiter": INNER_ITERATIONS, "gtol": 1e-9, "ftol": 1e-12},
+            options={"maxiter": max_inner, "gtol": 1e-9, "ftol": 1e-12},
         )
         x = result.x
         energy = float(result.fun)
