@@ -136,3 +136,18 @@ def test_bolted_joints_soften_the_shell_and_every_bolt_is_checked(joints_compare
     assert bolts["joints"] == 4 and sum(row["worst_in_joint"] == "True" for row in rows) == 4
     assert max(float(row["utilisation"]) for row in rows) == pytest.approx(bolts["utilisation"])
     assert r["bolts"]["checked"] is False and "rigid" in r["bolts"]["why"]
+
+
+@needs_ccx
+def test_every_sheet_edge_weld_is_checked_in_both_joint_models(joints_compared):
+    for joints in ("bolted", "rigid"):
+        _, result, _ = joints_compared[joints]
+        s = result.summary
+        welds = s["welds"]
+        # 4 panels x 2 sheets x 4 sides x the elements along a side, all standing on ribs
+        assert welds["edges"] == 4 * 2 * 4 * s["mesh"]["elements_per_side"]
+        # S235: f_vw,d = 360 / (sqrt 3 x 0.8 x 1.25) = 207.8 MPa; a = 3 mm / sqrt 2 by default
+        assert welds["throat_mm"] == pytest.approx(3.0 / np.sqrt(2.0), abs=0.01)
+        assert welds["resistance_N_per_mm"] == pytest.approx(207.85 * welds["throat_mm"], abs=0.1)
+        assert 0 < welds["utilisation"] < 1 and s["checks"]["welds"]
+        assert welds["governing"]["panel"] in result.panel_ids

@@ -141,6 +141,21 @@ def _bolts_row(bolts: dict, ok) -> str:
     )
 
 
+def _welds_row(welds: dict, ok) -> str:
+    """The sheet-to-rib welds' check in one line."""
+    if "governing" not in welds:
+        return f"{welds.get('edges', 0)} sheet edges on ribs: nothing to check"
+    g = welds["governing"]
+    return (
+        f"{welds['edges']} sheet-edge segments, fillet a = {welds['throat_mm']:.2f} mm, "
+        f"F_w,Rd {welds['resistance_N_per_mm']} N/mm (beta_w {welds['beta_w']}); largest "
+        f"{g['force_N_per_mm']} N/mm (along {g['along_N_per_mm']}, across "
+        f"{g['across_N_per_mm']}, out of plane {g['out_of_plane_N_per_mm']} N/mm, edge moment "
+        f"{g['moment_Nmm_per_mm']} N mm/mm) at {g['panel']} ({g['combination']}); utilisation "
+        f"{welds['utilisation']}: {ok(welds['ok'])}"
+    )
+
+
 def structure_section(result) -> str:
     """HTML of the structure section: key checks, figures, load cases, per-panel table."""
     from .html import _fmt, _table
@@ -197,6 +212,7 @@ def structure_section(result) -> str:
         ),
         ("stiffeners", mesh["stiffeners"]),
         ("joint bolts", _bolts_row(summary.get("bolts", {}), ok)),
+        ("sheet-to-rib welds", _welds_row(summary.get("welds", {}), ok)),
     ]
     if b.get("note"):
         rows.append(("buckling note", b["note"]))

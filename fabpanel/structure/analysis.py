@@ -59,6 +59,7 @@ from .supports import (
     support_reactions,
     write_reactions_csv,
 )
+from .weld_checks import FilletWeld, weld_checks
 
 log = logging.getLogger(__name__)
 
@@ -447,6 +448,10 @@ def _analyse(
     issues += bolt_issues
     if keep and joint is not None:
         write_bolts_csv(folder / "bolts.csv", bolts_summary)
+    welds_summary, weld_issues = weld_checks(
+        shell, s_bot, s_top, f_uls, [c.name for c in uls], FilletWeld.of(job), panel_ids
+    )
+    issues += weld_issues
 
     # ---- per panel -------------------------------------------------------------------------
     util_el = vm_el.max(axis=0) / fy
@@ -476,6 +481,7 @@ def _analyse(
         "sprung_sheets": not forming_issues,
         "bolt_layout": not layout_issues,
         "bolts": bool(bolts_summary.get("ok", True)),
+        "welds": bool(welds_summary["ok"]),
     }
     seconds = time.perf_counter() - started
     files = tuple(sorted(p.name for p in folder.iterdir() if p.is_file())) if keep else ()
@@ -520,6 +526,7 @@ def _analyse(
         "forming": forming,
         "bolt_layout": layout,
         "bolts": {k: v for k, v in bolts_summary.items() if k != "rows"},
+        "welds": welds_summary,
         "assumptions": assumptions(
             job,
             reference_height(shell, loads) if loads.code == "en1991" else None,

@@ -75,7 +75,13 @@ def assumptions(job, reference_height_m: float | None, sprung: int) -> list[str]
             "one continuous shell of twice the rib thickness; bolts not checked"
         )
     out += [
-        "rib-to-sheet welds are not checked; corner stiffeners are mass only (no stiffness)",
+        (
+            "rib-to-sheet welds: one fillet weld per sheet edge, EN 1993-1-8 4.5.3.3 "
+            "(simplified method) on the sheet edge's membrane traction plus its edge moment "
+            "as a couple over the rib thickness, read at the edge nodes of the model (stresses "
+            "extrapolated from the elements' integration points)"
+        ),
+        "corner stiffeners are mass only (no stiffness)",
         (
             f"supports: {st.supports} boundary ribs, {st.support_fixity} at their anchor-bolt "
             "nodes (mid-depth; every rib node when fixed); foundations rigid"

@@ -1,0 +1,211 @@
+"""The sheet-to-rib fillet welds checked under every ULS combination (EN 1993-1-8 §4.5.3.3).
+
+Every sheet edge of the shell model stands on a rib (the sandwich's junction lines) and is
+joined to it by one fillet weld of throat ``a`` (``[sandwich.welds] throat``), so everything the
+sheet edge carries passes through that weld. From the sheet elements along each junction the
+force per unit length on the edge is read at the edge's three nodes:
+
+* the membrane traction ``t (σ_m · m)``, with ``σ_m`` the mean of the two faces' stresses and
+  ``m`` the edge's outward normal in the sheet: shear flow along the weld, the force across it
+  in the sheet's plane, and out of it;
+* the edge moment ``t² / 6 |σ_b · m|`` (``σ_b`` half the faces' difference), which the joint
+  carries as a couple between the weld and the sheet bearing on the rib's top, its lever the
+  rib thickness, so it adds ``|moment| / t_rib`` to the weld's force.
+
+The weld force per unit length is the length of the traction plus the couple's force (an upper
+bound of their vector sum), against the simplified method's ``F_w,Rd = a f_u / (√3 β_w
+γ_M2)``, with ``β_w`` by the steel's grade (EN 1993-1-8 Table 4.1) and ``γ_M2 = 1.25``. The
+directional method (§4.5.3.2) would allow more where the force runs along the weld; the
+simplified one needs no weld geometry beyond the throat, and is on the safe side.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import Issue
+from .connectors import GAMMA_M2
+from .mesh import ShellModel
+
+#: utilisations above this are an error
+LIMIT = 1.0
+#: the three S8R nodes of each side: corner, mid-side node, corner
+SIDE_NODES = np.array([[0, 4, 1], [1, 5, 2], [2, 6, 3], [3, 7, 0]])
+#: EN 1993-1-8 Table 4.1: beta_w by yield strength (N/mm²) of the weaker part, up to
+_BETA_W = ((235.0, 0.80), (275.0, 0.85), (355.0, 0.90), (math.inf, 1.00))
+
+
+def beta_w(fy: float) -> float:
+    """The correlation factor of a fillet weld in steel of yield strength ``fy`` (MPa):
+    S235 0.80, S275 0.85, S355 0.90, S420 and S460 1.00."""
+    return next(beta for limit, beta in _BETA_W if fy <= limit + 1e-9)
+
+
+@dataclass(frozen=True)
+class FilletWeld:
+    """The sheet-to-rib weld: its throat ``a`` and the rib it stands on (mm), the steel's
+    ``fu`` and ``fy`` (MPa)."""
+
+    throat: float
+    t_rib: float
+    fu: float
+    fy: float
+
+    @classmethod
+    def of(cls, job) -> FilletWeld:
+        from ..buildup import Buildup
+
+        bu = Buildup.of(job)
+        return cls(
+            throat=bu.welds.throat,
+            t_rib=bu.t_rib,
+            fu=float(job.material.fu),
+            fy=float(job.material.fy),
+        )
+
+    @property
+    def resistance(self) -> float:
+        """``F_w,Rd`` per unit length, N/mm: ``a f_u / (√3 β_w γ_M2)`` (§4.5.3.3)."""
+        return self.throat * self.fu / (math.sqrt(3.0) * beta_w(self.fy) * GAMMA_M2)
+
+
+def junction_edges(shell: ShellModel) -> tuple[np.ndarray, np.ndarray]:
+    """The sheet elements' sides that lie on a rib: ``(element, side)`` (k,) each, the side
+    numbered as :data:`SIDE_NODES`. A side lies on a rib where its three nodes all belong to
+    rib elements (ribs meet sheets only along the junction lines)."""
+    assert shell.side is not None
+    quads = shell.quads
+    rib = shell.side[: len(quads)] >= 0
+    on_rib = np.zeros(len(shell.nodes), dtype=bool)
+    on_rib[quads[rib].ravel()] = True
+    sheets = np.flatnonzero(~rib)
+    sides = on_rib[quads[sheets][:, SIDE_NODES]].all(axis=2)  # (s, 4)
+    element, side = np.nonzero(sides)
+    return sheets[element], side
+
+
+def edge_frames(shell: ShellModel, element: np.ndarray, side: np.ndarray) -> np.ndarray:
+    """(k, 2, 3): per junction side, the unit direction along it and its outward normal in
+    the sheet's plane (away from the element's centre)."""
+    quads = shell.quads[element]
+    corners = shell.nodes[quads[:, :4]]
+    ends = shell.nodes[quads[np.arange(len(side))[:, None], SIDE_NODES[side][:, [0, 2]]]]
+    along = ends[:, 1] - ends[:, 0]
+    along /= np.linalg.norm(along, axis=1, keepdims=True)
+    normal = np.cross(corners[:, 2] - corners[:, 0], corners[:, 3] - corners[:, 1])
+    outward = np.cross(along, normal)
+    outward /= np.linalg.norm(outward, axis=1, keepdims=True)
+    away = ends.mean(axis=1) - corners.mean(axis=1)
+    outward *= np.sign(np.einsum("ki,ki->k", outward, away))[:, None]
+    return np.stack([along, outward], axis=1)
+
+
+def _tensor(stress: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) from (..., 6) components in .frd order (xx, yy, zz, xy, yz, zx)."""
+    xx, yy, zz, xy, yz, zx = np.moveaxis(stress, -1, 0)
+    return np.stack(
+        [np.stack([xx, xy, zx], -1), np.stack([xy, yy, yz], -1), np.stack([zx, yz, zz], -1)], -2
+    )
+
+
+def edge_loads(
+    shell: ShellModel,
+    s_bot: np.ndarray,
+    s_top: np.ndarray,
+    element: np.ndarray,
+    side: np.ndarray,
+    frames: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per static case, at the three nodes of every junction side: the membrane traction
+    (C, k, 3, 3) N/mm, world, and the edge moment vector (C, k, 3, 3) N mm/mm, from the
+    faces' stresses ``s_bot``, ``s_top`` (C, E, 8, 6)."""
+    local = SIDE_NODES[side]  # (k, 3) local node numbers
+    bottom = _tensor(s_bot[:, element[:, None], local])  # (C, k, 3, 3, 3)
+    top = _tensor(s_top[:, element[:, None], local])
+    t = shell.thickness[element][None, :, None, None]
+    outward = frames[:, 1]  # (k, 3)
+    membrane = np.einsum("ckaij,kj->ckai", 0.5 * (bottom + top), outward) * t
+    bending = np.einsum("ckaij,kj->ckai", 0.5 * (top - bottom), outward) * t**2 / 6.0
+    return membrane, bending
+
+
+def weld_checks(
+    shell: ShellModel,
+    s_bot: np.ndarray,
+    s_top: np.ndarray,
+    factors: np.ndarray,
+    names: list[str],
+    weld: FilletWeld,
+    panel_ids: tuple[str, ...],
+) -> tuple[dict, list[Issue]]:
+    """Every junction's fillet weld under every ULS combination (``factors`` (K, C), named
+    ``names``); the summary (resistance, the worst weld force and its parts, where and under
+    which combination) and an error where a weld is overloaded."""
+    element, side = junction_edges(shell)
+    resistance = weld.resistance
+    summary: dict = {
+        "method": "EN 1993-1-8 4.5.3.3 (simplified), one fillet weld per sheet edge",
+        "throat_mm": weld.throat,
+        "beta_w": beta_w(weld.fy),
+        "gamma_M2": GAMMA_M2,
+        "resistance_N_per_mm": round(resistance, 1),
+        "edges": len(element),
+    }
+    if not len(element) or not len(factors):
+        return {**summary, "ok": True, "utilisation": 0.0}, []
+    frames = edge_frames(shell, element, side)
+    membrane, bending = edge_loads(shell, s_bot, s_top, element, side, frames)
+    combined_m = np.einsum("kc,cnai->knai", factors, membrane)  # (K, k, 3, 3)
+    combined_b = np.einsum("kc,cnai->knai", factors, bending)
+    moment = np.linalg.norm(combined_b, axis=-1)
+    force = np.linalg.norm(combined_m, axis=-1) + moment / weld.t_rib
+    worst = np.unravel_index(int(np.argmax(force)), force.shape)
+    combo, edge, node = (int(i) for i in worst)
+    utilisation = float(force[worst]) / resistance
+    assert shell.panel is not None
+    summary.update(
+        utilisation=round(utilisation, 4),
+        ok=bool(utilisation <= LIMIT),
+        governing={
+            "combination": names[combo],
+            "force_N_per_mm": round(float(force[worst]), 1),
+            **_parts(combined_m[worst], frames[edge]),
+            "moment_Nmm_per_mm": round(float(moment[worst]), 1),
+            "panel": panel_ids[int(shell.panel[element[edge], 0])],
+            "at_mm": [
+                round(float(v), 1) for v in shell.nodes[_node(shell, element, side, edge, node)]
+            ],
+        },
+    )
+    over = force.max(axis=(0, 2)) > LIMIT * resistance
+    if not over.any():
+        return summary, []
+    panels = sorted({panel_ids[int(p)] for p in shell.panel[element[over], 0]})
+    return summary, [
+        Issue(
+            "weld-overloaded",
+            f"{int(over.sum())} sheet edge(s) of {len(panels)} panel(s) ({', '.join(panels[:6])}"
+            f"{' ...' if len(panels) > 6 else ''}) need more than the fillet weld's "
+            f"{resistance:.0f} N/mm (a = {weld.throat:g} mm): up to {float(force[worst]):.0f} "
+            f"N/mm under {names[combo]}; raise [sandwich.welds] throat or the sheet thickness",
+            severity="error",
+        )
+    ]
+
+
+def _parts(traction: np.ndarray, frame: np.ndarray) -> dict:
+    """The weld force's parts along the weld, across it in the sheet and out of the sheet."""
+    along, across = float(traction @ frame[0]), float(traction @ frame[1])
+    out = float(np.linalg.norm(traction - along * frame[0] - across * frame[1]))
+    return {
+        "along_N_per_mm": round(along, 1),
+        "across_N_per_mm": round(across, 1),
+        "out_of_plane_N_per_mm": round(out, 1),
+    }
+
+
+def _node(shell: ShellModel, element: np.ndarray, side: np.ndarray, edge: int, node: int) -> int:
+    return int(shell.quads[element[edge], SIDE_NODES[side[edge], node]])
