@@ -44,7 +44,7 @@ from .checks import (
     relative_error,
     span_of,
 )
-from .connectors import attach
+from .connectors import JointBolts, attach
 from .convergence import MAX_REFINEMENTS, buckling_convergence
 from .forming import sprung_sheet_findings
 from .loads import gravity_forces
@@ -157,6 +157,14 @@ def panels_built(model) -> np.ndarray:
 def shell_of(model, job, divisions: int | None = None) -> ShellModel:
     """The shell model of a built :class:`~fabpanel.data.Model` held at its anchorages
     (:mod:`.supports`). Panels that were not built are meshed too (see :mod:`.mesh`)."""
+    return shell_and_joints(model, job, divisions)[0]
+
+
+def shell_and_joints(
+    model, job, divisions: int | None = None
+) -> tuple[ShellModel, JointBolts | None]:
+    """:func:`shell_of`, and its joints' bolts where they are connectors
+    (:func:`.connectors.attach`)."""
     developed = model.developed
     n = divisions or choose_divisions(developed, job)
     shell = sandwich_model(
@@ -180,8 +188,8 @@ def shell_of(model, job, divisions: int | None = None) -> ShellModel:
     else:
         supports = _sheet_edge_nodes(shell, developed, sides, n)
     check_supports(shell.nodes, supports, what)
-    shell, _ = attach(shell, model, job)
-    return shell.replace(supports=np.unique(supports))
+    shell, joint = attach(shell, model, job)
+    return shell.replace(supports=np.unique(supports)), joint
 
 
 def _sheet_edge_nodes(shell, developed, sides, n) -> np.ndarray:
@@ -249,7 +257,7 @@ def _analyse(
     st, loads = job.structure, job.loads
     developed = model.developed
     panel_ids = tuple(developed.panel_ids)
-    shell = shell_of(model, job)
+    shell, joint = shell_and_joints(model, job)
     cases, case_info, issues = load_cases(shell, job)
     names = [c.name for c in cases]
 
@@ -373,14 +381,10 @@ def _analyse(
     # ---- buckling --------------------------------------------------------------------------
     buckle_case = ccx.combine(cases, list(governing.factors), governing.name)
     modes_asked = st.buckling_modes
-    factors, shapes, brun = _buckle(
-        shell, buckle_case, folder, modes_asked, threads, st, executable
-    )
+    factors, shapes, brun = _buckle(shell, buckle_case, folder, modes_asked, st, executable)
     if (factors > 0).sum() < MIN_POSITIVE_MODES and modes_asked < 4 * st.buckling_modes:
         modes_asked *= 2
-        factors, shapes, brun = _buckle(
-            shell, buckle_case, folder, modes_asked, threads, st, executable
-        )
+        factors, shapes, brun = _buckle(shell, buckle_case, folder, modes_asked, st, executable)
     positive = np.nonzero(factors > 0)[0]
     positive = positive[np.argsort(factors[positive])]
     required = 1.0 / loads.buckling_knockdown
@@ -427,7 +431,7 @@ def _analyse(
             finer_cases, _, _ = load_cases(finer, job)
             case = ccx.combine(finer_cases, list(governing.factors), governing.name)
             values, _, _ = _buckle(
-                finer, case, folder, st.buckling_modes, threads, st, executable, f"buckle-{k}"
+                finer, case, folder, st.buckling_modes, st, executable, f"buckle-{k}"
             )
             positive_k = values[values > 0]
             return float(positive_k.min()) if len(positive_k) else math.inf
@@ -443,7 +447,6 @@ def _analyse(
         issues += found
 
     # ---- bolts -----------------------------------------------------------------------------
-    _, joint = attach(shell, model, job)
     bolts_summary, bolt_issues = bolt_checks(shell, joint, dat, f_uls, [c.name for c in uls], job)
     issues += bolt_issues
     if keep and joint is not None:
@@ -663,7 +666,7 @@ def _support_summary(per_support, combined) -> list[dict]:
     return out
 
 
-def _buckle(shell, case, folder, modes, threads, st, executable, stem="buckle"):
+def _buckle(shell, case, folder, modes, st, executable, stem="buckle"):
     deck = ccx.write_deck(
         shell,
         folder / f"{stem}.inp",

@@ -54,6 +54,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..fasteners import BoltSize
+from ..model.joints import bolt_stations
 from .mesh import ShellModel, Springs
 
 #: EN 1993-1-8 Table 6.11's reference diameter, mm
@@ -322,8 +323,6 @@ def _bolts_of_joint(holes, pid, s, qid, t, line, along, spacing, edge) -> np.nda
     for rib in (f"{pid}-RIB-{s}", f"{qid}-RIB-{t}"):
         if rib in holes:
             return holes[rib]
-    from ..model.joints import bolt_stations
-
     at = bolt_stations(float(along[-1]), spacing, edge)
     return np.stack([np.interp(at, along, line[:, i]) for i in range(3)], axis=1)
 

@@ -148,7 +148,7 @@ def weld_checks(
     resistance = weld.resistance
     summary: dict = {
         "method": "EN 1993-1-8 4.5.3.3 (simplified), one fillet weld per sheet edge",
-        "throat_mm": weld.throat,
+        "throat_mm": round(weld.throat, 3),
         "beta_w": beta_w(weld.fy),
         "gamma_M2": GAMMA_M2,
         "resistance_N_per_mm": round(resistance, 1),
