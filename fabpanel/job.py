@@ -843,9 +843,21 @@ class StructureSection(_Section):
     max_elements: int = Field(default=6000, ge=50, le=200000)
     #: which boundary ribs stand on foundations: ``lowest``, the anchor nodes within
     #: ``support_band`` of the lowest one (the thesis's lowest points, now at the anchorages);
-    #: ``boundary``: every boundary rib; ``openings``: the ribs round the openings (rims)
-    supports: Literal["lowest", "boundary", "openings"] = "lowest"
+    #: ``boundary``: every boundary rib; ``openings``: the ribs round the openings (rims);
+    #: ``points``: the boundary ribs' anchor nodes within ``support_radius`` of each of
+    #: ``support_points`` (columns, base plates), one support each; ``ranges``: the boundary
+    #: ribs from one point to the other of each pair in ``support_ranges``, along the
+    #: boundary loop nearest both, the shorter way round
+    supports: Literal["lowest", "boundary", "openings", "points", "ranges"] = "lowest"
     support_band: NonNegativeLength = _default("10 mm")
+    #: ``supports = "points"``: x, y, z in the input's units, each near the boundary
+    support_points: list[tuple[float, float, float]] = Field(default_factory=list)
+    #: ``supports = "points"``: how far from its point a support reaches along the boundary
+    support_radius: PositiveLength = _default("300 mm")
+    #: ``supports = "ranges"``: pairs of points (x, y, z in the input's units) on the boundary
+    support_ranges: list[tuple[tuple[float, float, float], tuple[float, float, float]]] = Field(
+        default_factory=list
+    )
     #: ``pinned``: the boundary ribs held at their anchor-bolt line (mid-depth nodes),
     #: translations only; ``fixed``: every node of those ribs (a base plate clamped by two
     #: rows of anchor bolts)
@@ -870,6 +882,19 @@ class StructureSection(_Section):
     #: without CalculiX the export still completes and the summary says "not analysed";
     #: true (or ``--require-fem``) makes that an error
     required: bool = False
+
+    def _check(self, w: _Written) -> None:
+        for mode, key in (("points", "support_points"), ("ranges", "support_ranges")):
+            if self.supports == mode and not getattr(self, key):
+                raise _RuleError(
+                    key,
+                    f'supports = "{mode}" needs {key}: '
+                    + (
+                        "support_points = [[x, y, z], ...] in the input's units"
+                        if mode == "points"
+                        else "support_ranges = [[[x, y, z], [x, y, z]], ...] in the input's units"
+                    ),
+                )
 
 
 class OutputSection(_Section):

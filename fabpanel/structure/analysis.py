@@ -55,6 +55,8 @@ from .supports import (
     check_supports,
     layout_boundary_loops,
     lowest_sides,
+    near_points,
+    range_sides,
     rib_elements_of_sides,
     support_reactions,
     write_reactions_csv,
@@ -183,13 +185,28 @@ def shell_and_joints(
     if st.supports == "lowest":
         sides = lowest_sides(developed, sides, st.support_band)
         what += f" (band {st.support_band:g} mm)"
+    elif st.supports == "ranges":
+        sides = range_sides(developed, loops, _local_points(job, st.support_ranges, layout))
     if job.sandwich.buildup == "sandwich":
         supports = anchor_nodes(shell, rib_elements_of_sides(shell, sides), st.support_fixity)
     else:
         supports = _sheet_edge_nodes(shell, developed, sides, n)
+    if st.supports == "points":
+        points = _local_points(job, st.support_points, layout)
+        supports = near_points(shell.nodes, supports, points, st.support_radius)
+        what += f" (radius {st.support_radius:g} mm)"
     check_supports(shell.nodes, supports, what)
     shell, joint = attach(shell, model, job)
     return shell.replace(supports=np.unique(supports)), joint
+
+
+def _local_points(job, points, layout) -> np.ndarray:
+    """Points given in the input's units (any nesting of x, y, z triples) in the layout's
+    local frame, mm."""
+    from ..units import length_scale
+
+    scale = length_scale(job.input.units or "mm")
+    return np.asarray(points, dtype=float) * scale - np.asarray(layout.origin)
 
 
 def _sheet_edge_nodes(shell, developed, sides, n) -> np.ndarray:

@@ -8,7 +8,10 @@ turn about its bolt line), or every node of those ribs (``"fixed"``: two rows of
 it). Which ribs: ``supports = "lowest"`` those whose whole design edge lies within
 ``support_band`` of the lowest boundary point (the springing lines of a vault, the ring of a
 dome; when none does, those reaching into the band), ``"boundary"`` every
-boundary rib, ``"openings"`` the ribs round the openings (support rims). A shell without ribs
+boundary rib, ``"openings"`` the ribs round the openings (support rims), ``"points"`` the boundary ribs'
+anchor nodes within ``support_radius`` of each of ``support_points`` (columns),
+``"ranges"`` the boundary ribs between the two points of each of ``support_ranges``, along
+the boundary (the shorter way round). A shell without ribs
 (``buildup = "cladding"``) is held at its sheet's edge nodes along those sides.
 
 **Supports.** The restrained nodes fall into supports: the runs of them joined through their
@@ -100,6 +103,63 @@ def lowest_sides(developed, sides: np.ndarray, band: float) -> np.ndarray:
     if not whole.any():
         whole = np.array([z.min() <= lowest + band for z in samples])
     return np.asarray(sides)[whole]
+
+
+def near_points(nodes: np.ndarray, candidates: np.ndarray, points: np.ndarray, radius: float):
+    """(s,) int: the ``candidates`` (node ids) within ``radius`` mm of any of ``points``
+    (p, 3); a :class:`GeometryError` for a point with none (it is not on a supported
+    boundary)."""
+    distance = np.linalg.norm(nodes[candidates][:, None, :] - points[None, :, :], axis=2)
+    for k in np.flatnonzero((distance > radius).all(axis=0)):
+        raise GeometryError(
+            f"[structure] support_points {k + 1} lies {float(distance[:, k].min()):.0f} mm from "
+            f"the nearest boundary rib's anchor node, beyond support_radius "
+            f"({radius:g} mm): put the point on the boundary or raise support_radius"
+        )
+    return candidates[(distance <= radius).any(axis=1)]
+
+
+def range_sides(developed, loops: list[np.ndarray], pairs: np.ndarray) -> np.ndarray:
+    """(k, 2) int: the boundary (panel, side) pairs between the two points of each pair
+    (``pairs`` (r, 2, 3), mm, local), along the loop nearest both, the shorter way round: each
+    point is placed on the loop at its nearest design-edge sample, and a side belongs to the
+    range where more than half of it lies between the two (a point at a corner of the
+    outline takes neither side of the corner by halves)."""
+    chosen = []
+    for start, end in pairs:
+        found = [_loop_positions(developed, loop, (start, end)) for loop in loops]
+        _, loop, bounds, (a, b) = min(found, key=lambda f: f[0])
+        total = bounds[-1]
+        forward = (b - a) % total
+        if forward > total / 2:  # the shorter way round
+            a, forward = b, total - forward
+        middle = 0.5 * (bounds[:-1] + bounds[1:])
+        inside = (middle - a) % total < forward
+        chosen.append(loop[inside])
+    return np.unique(np.concatenate(chosen), axis=0)
+
+
+def _loop_positions(developed, loop: np.ndarray, points) -> tuple:
+    """How far the points lie from the loop's design edge (summed), the loop, the arc
+    lengths at its sides' ends (len + 1,), and the points' arc-length positions."""
+    samples = [np.asarray(developed.side_samples(p, s)) for p, s in loop]
+    lengths = np.array([np.linalg.norm(np.diff(x, axis=0), axis=1).sum() for x in samples])
+    bounds = np.concatenate([[0.0], np.cumsum(lengths)])
+    along = np.concatenate(
+        [
+            bounds[k]
+            + np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(x, axis=0), axis=1))])
+            for k, x in enumerate(samples)
+        ]
+    )
+    polyline = np.concatenate(samples)
+    miss, positions = 0.0, []
+    for point in points:
+        distance = np.linalg.norm(polyline - point, axis=1)
+        nearest = int(np.argmin(distance))
+        miss += float(distance[nearest])
+        positions.append(float(along[nearest]))
+    return miss, loop, bounds, positions
 
 
 def check_supports(nodes: np.ndarray, supports: np.ndarray, what: str) -> None:

@@ -1,0 +1,92 @@
+"""Supports named by points and boundary ranges (structure/supports.py, [structure] supports)."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+from conftest import cylinder_developed
+
+import fabpanel as fp
+from fabpanel.errors import GeometryError
+from fabpanel.structure.analysis import analyse, shell_of
+from fabpanel.structure.supports import support_regions
+
+needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) missing")
+
+RADIUS = 4000.0
+#: the vault's four corners (x, at 60° and 120° round the x axis): its springing lines are
+#: x = 0..2400 at y = +-2000, z = 3464.1
+CORNERS = [
+    [x, RADIUS * np.cos(t), RADIUS * np.sin(t)]
+    for x in (0.0, 2400.0)
+    for t in (np.pi / 3, 2 * np.pi / 3)
+]
+
+
+def _job(**structure) -> fp.Job:
+    return fp.Job.from_dict({"structure": {"buckling_convergence": False, **structure}})
+
+
+@pytest.fixture(scope="module")
+def model():
+    return fp.build(cylinder_developed(radius=RADIUS, length=2400.0, arc=np.pi / 3), _job(), jobs=1)
+
+
+def test_ranges_along_the_springing_lines_hold_the_same_nodes_as_lowest(model):
+    lowest = shell_of(model, _job())
+    ranges = [[CORNERS[0], CORNERS[2]], [CORNERS[1], CORNERS[3]]]  # each springing line
+    ranged = shell_of(model, _job(supports="ranges", support_ranges=ranges))
+    assert len(lowest.supports) > 6
+    np.testing.assert_array_equal(np.sort(ranged.supports), np.sort(lowest.supports))
+    # one range only: that line's pinned nodes form a hinge, refused
+    with pytest.raises(GeometryError, match="on one line"):
+        shell_of(model, _job(supports="ranges", support_ranges=ranges[:1]))
+    # a range between opposite corners: a springing line and an end arc, round the corner
+    bent = shell_of(model, _job(supports="ranges", support_ranges=[[CORNERS[2], CORNERS[1]]]))
+    held = bent.nodes[bent.supports]
+    assert np.ptp(held[:, 1]) > 3000  # across the end arc from y = 2000 to -2000
+    assert np.ptp(held[:, 0]) > 2000  # and along a springing line from x = 0 to 2400
+
+
+def test_point_supports_hold_the_anchor_nodes_near_each_point_one_support_each(model):
+    shell = shell_of(
+        model, _job(supports="points", support_points=CORNERS, support_radius="350 mm")
+    )
+    region, centroids = support_regions(shell)
+    assert len(centroids) == 4
+    held = shell.nodes[shell.supports]
+    for k in range(4):
+        near = np.linalg.norm(held[region == k][:, None] - np.array(CORNERS)[None], axis=2)
+        assert (near.min(axis=1) <= 350.0).all()
+    # every anchor node of the boundary ribs within the radius of a corner is held
+    everything = shell_of(model, _job(supports="boundary"))
+    pool = everything.nodes[everything.supports]
+    within = (np.linalg.norm(pool[:, None] - np.array(CORNERS)[None], axis=2) <= 350.0).any(1)
+    assert within.sum() == len(shell.supports)
+
+
+def test_a_point_off_the_boundary_is_refused_with_its_distance(model):
+    crown = [1200.0, 0.0, RADIUS]
+    with pytest.raises(GeometryError, match=r"support_points 5 lies \d+ mm from"):
+        shell_of(model, _job(supports="points", support_points=[*CORNERS, crown]))
+
+
+def test_points_or_ranges_without_their_list_are_refused():
+    with pytest.raises(fp.InputError, match="needs support_ranges"):
+        _job(supports="ranges")
+
+
+@needs_ccx
+def test_four_column_supports_carry_the_load(model, tmp_path):
+    job = _job(supports="points", support_points=CORNERS, support_radius="350 mm")
+    result = analyse(model, job, folder=tmp_path)
+    s = result.summary
+    assert s["checks"]["reactions"]
+    supports = s["supports"]["reactions"]
+    assert [r["support"] for r in supports] == ["R1", "R2", "R3", "R4"]
+    weight = -s["load_cases"]["G"]["applied_N"][2] / 1e3
+    # symmetric vault on four symmetric columns: a quarter of the weight each
+    for r in supports:
+        assert r["cases_kN"]["G"][2] == pytest.approx(weight / 4, rel=0.02)
