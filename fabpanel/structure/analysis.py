@@ -23,7 +23,6 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -32,6 +31,7 @@ from . import ccx
 from .assumptions import assumptions
 from .bolt_checks import bolt_checks, corrected_reactions, write_bolts_csv
 from .bolt_layout import bolt_layout
+from .buckling import MIN_POSITIVE_MODES, buckle, linear_buckling, node_values, significant
 from .cases import load_cases, reference_height
 from .checks import (
     combinations,
@@ -39,7 +39,6 @@ from .checks import (
     combined_von_mises,
     en1990_combinations,
     membrane_compression,
-    mode_extent,
     panel_labels,
     relative_error,
     span_of,
@@ -72,11 +71,6 @@ MASS_TOLERANCE = 0.005
 REACTION_TOLERANCE = 0.001
 #: at most this many elements per panel side when the size is chosen automatically
 AUTO_MAX_DIVISIONS = 4
-#: fewer elements per panel side than this cannot resolve a sheet's local buckling between its
-#: ribs (one half-wave per panel; S8R plates need about 4 per half-wave for a few per cent)
-LOCAL_BUCKLING_DIVISIONS = 4
-#: at least this many positive buckling factors are reported (thesis: "not fewer than 5")
-MIN_POSITIVE_MODES = 5
 
 
 @dataclass(frozen=True)
@@ -218,6 +212,28 @@ def _sheet_edge_nodes(shell, developed, sides, n) -> np.ndarray:
     return np.unique(idx[d < 0.5 * float(np.ptp(shell.nodes, axis=0).max()) / max(n, 1)])
 
 
+def _mesh_study(model, job, governing, first: float, folder: Path, executable: str):
+    """The buckling mesh study (:mod:`.convergence`): the governing combination's first
+    factor at one element per side fewer and, while it still changes, finer."""
+    st, developed = job.structure, model.developed
+    n = choose_divisions(developed, job)
+
+    def first_at(k: int) -> float:
+        finer = shell_of(model, job, k)
+        finer_cases, _, _ = load_cases(finer, job)
+        case = ccx.combine(finer_cases, list(governing.factors), governing.name)
+        values, _, _ = buckle(finer, case, folder, st.buckling_modes, st, executable, f"buckle-{k}")
+        positive = values[values > 0]
+        return float(positive.min()) if len(positive) else math.inf
+
+    return buckling_convergence(
+        first_at,
+        n,
+        first,
+        lambda k: k <= n + MAX_REFINEMENTS and element_count(developed, job, k) <= st.max_elements,
+    )
+
+
 # --------------------------------------------------------------------------------------------
 # the stage
 # --------------------------------------------------------------------------------------------
@@ -333,7 +349,7 @@ def _analyse(
             "applied_N": _r(total, 2),
             "reaction_N": _r(reaction, 2),
             "on_support_nodes_N": _r(applied[supp].sum(axis=0), 2),
-            "error": _sig(error, 2),
+            "error": significant(error, 2),
             "ok": bool(error <= REACTION_TOLERANCE),
         }
         if error > REACTION_TOLERANCE:
@@ -396,71 +412,20 @@ def _analyse(
     governing = uls[int(np.argmax(compression))]
 
     # ---- buckling --------------------------------------------------------------------------
-    buckle_case = ccx.combine(cases, list(governing.factors), governing.name)
-    modes_asked = st.buckling_modes
-    factors, shapes, brun = _buckle(shell, buckle_case, folder, modes_asked, st, executable)
-    if (factors > 0).sum() < MIN_POSITIVE_MODES and modes_asked < 4 * st.buckling_modes:
-        modes_asked *= 2
-        factors, shapes, brun = _buckle(shell, buckle_case, folder, modes_asked, st, executable)
-    positive = np.nonzero(factors > 0)[0]
-    positive = positive[np.argsort(factors[positive])]
-    required = 1.0 / loads.buckling_knockdown
-    modes: list[dict[str, Any]] = []
-    mode_shape = None
-    for rank, j in enumerate(positive):
-        shape = shapes[j]
-        amp = np.linalg.norm(0.5 * (shape[bottom][..., :3] + shape[top][..., :3]), axis=-1)
-        panels, _ = mode_extent(amp.max(axis=1), el_panel, len(panel_ids))
-        modes.append(
-            {
-                "mode": rank + 1,
-                "factor": _sig(factors[j], 4),
-                "panels": [panel_ids[p] for p in panels[:20]],
-                "panel_count": len(panels),
-            }
-        )
-        if rank == 0:
-            mode_shape = _node_values(shell, 0.5 * (shape[bottom][..., :3] + shape[top][..., :3]))
-            mode_shape /= max(np.linalg.norm(mode_shape, axis=1).max(), 1e-300)
-    if len(positive) < MIN_POSITIVE_MODES:
-        issues.append(
-            Issue(
-                "few-buckling-modes",
-                f"only {len(positive)} positive buckling factors among {modes_asked} requested",
-            )
-        )
-    first = float(factors[positive[0]]) if len(positive) else math.inf
-    divisions = int(_divisions(shell, panel_ids))
-    local_note = None
-    if divisions < LOCAL_BUCKLING_DIVISIONS:
-        local_note = (
-            f"{divisions} element(s) per panel side cannot show the sheets buckling "
-            f"between their ribs: the factors cover the global modes only; refine "
-            f"with [structure] element_size (about a quarter of the panel size)"
-        )
-        issues.append(Issue("coarse-buckling-mesh", local_note))
+    buckled = linear_buckling(
+        shell, cases, governing, (bottom, top), panel_ids, job, folder, executable
+    )
+    issues += buckled.issues
+    factors, modes, mode_shape, first = (
+        buckled.factors,
+        buckled.modes,
+        buckled.mode_shape,
+        buckled.first,
+    )
+    required, local_note, brun = buckled.required, buckled.note, buckled.run
     convergence: dict = {"checked": False}
     if st.buckling_convergence and math.isfinite(first):
-        n = choose_divisions(developed, job)
-
-        def first_at(k: int) -> float:
-            finer = shell_of(model, job, k)
-            finer_cases, _, _ = load_cases(finer, job)
-            case = ccx.combine(finer_cases, list(governing.factors), governing.name)
-            values, _, _ = _buckle(
-                finer, case, folder, st.buckling_modes, st, executable, f"buckle-{k}"
-            )
-            positive_k = values[values > 0]
-            return float(positive_k.min()) if len(positive_k) else math.inf
-
-        convergence, found = buckling_convergence(
-            first_at,
-            n,
-            first,
-            lambda k: (
-                k <= n + MAX_REFINEMENTS and element_count(developed, job, k) <= st.max_elements
-            ),
-        )
+        convergence, found = _mesh_study(model, job, governing, first, folder, executable)
         issues += found
 
     # ---- bolts -----------------------------------------------------------------------------
@@ -526,7 +491,7 @@ def _analyse(
             "S8R": len(shell.quads),
             "S6": len(shell.triangles),
             "nodes": len(shell.nodes),
-            "elements_per_side": divisions,
+            "elements_per_side": buckled.divisions,
             "knots": len(knots),
             "knots_off_junctions": len(stray),
             "groups": {
@@ -567,7 +532,7 @@ def _analyse(
             "model_kg": round(fe_mass, 2),
             "parts_kg": round(parts_mass, 2),
             "lumped_stiffeners_kg": round(lumped, 2),
-            "error": _sig(mass_error, 3),
+            "error": significant(mass_error, 3),
             "tolerance": MASS_TOLERANCE,
             "ok": mass_ok,
             **(
@@ -608,9 +573,9 @@ def _analyse(
             "combination": governing.name,
             "selected_by": "largest compressive membrane force of the ULS combinations",
             "factors": [m["factor"] for m in modes[:MIN_POSITIVE_MODES]],
-            "all_factors": [_sig(f, 4) for f in factors],
+            "all_factors": [significant(f, 4) for f in factors],
             "required": round(required, 3),
-            "first": _sig(first, 4),
+            "first": significant(first, 4),
             "convergence": convergence,
             "modes": modes[: max(MIN_POSITIVE_MODES, 10)],
             "note": local_note,
@@ -621,7 +586,7 @@ def _analyse(
         "panels": per_panel,
         "files": [f"structure/{name}" for name in files],
     }
-    displacement = _node_values(shell, np.einsum("c,ceaj->eaj", f_sls[k_d], u_el))
+    displacement = node_values(shell, np.einsum("c,ceaj->eaj", f_sls[k_d], u_el))
     metrics = {
         "peak_memory_mb": max(run.peak_memory_mb, brun.peak_memory_mb),
         "seconds": seconds,
@@ -683,26 +648,6 @@ def _support_summary(per_support, combined) -> list[dict]:
     return out
 
 
-def _buckle(shell, case, folder, modes, st, executable, stem="buckle"):
-    deck = ccx.write_deck(
-        shell,
-        folder / f"{stem}.inp",
-        buckle=case,
-        modes=modes,
-        title=f"fabpanel buckling under {case.name}",
-    )
-    # one thread: SPOOLES on two threads let the higher buckling factors of a model with
-    # spring joints vary in their fourth digit from run to run (751.1 / 751.2), and the same
-    # job must give the same output; a second thread gains SPOOLES about 12 % (notes/fem.md)
-    run = ccx.run_ccx(deck, 1, st.timeout, executable)
-    dat = ccx.read_dat(run.dat)
-    frd = ccx.read_frd(run.frd)
-    blocks = frd.results("DISP")
-    factors = dat.buckling if len(dat.buckling) else np.array([v for v, _, _ in blocks])
-    shapes = [a for _, _, a in blocks][-len(factors) :] if len(factors) else []
-    return np.asarray(factors, float), shapes, run
-
-
 def _equations(log_path: Path) -> int:
     """Number of equations CalculiX solved (from its log), 0 if not printed."""
     text = Path(log_path).read_text(errors="replace").split()
@@ -710,16 +655,6 @@ def _equations(log_path: Path) -> int:
         if word == "equations" and text[i + 1].isdigit():
             return int(text[i + 1])
     return 0
-
-
-def _node_values(shell: ShellModel, per_element_node: np.ndarray) -> np.ndarray:
-    """(n, c): element-node values (E, 8, c) averaged at the shell nodes."""
-    c = per_element_node.shape[-1]
-    total = np.zeros((len(shell.nodes), c))
-    count = np.zeros(len(shell.nodes))
-    np.add.at(total, shell.quads.ravel(), per_element_node.reshape(-1, c))
-    np.add.at(count, shell.quads.ravel(), 1)
-    return total / np.maximum(count, 1)[:, None]
 
 
 def _part_of(shell: ShellModel, e: int, panel_ids, p: int) -> str:
@@ -735,20 +670,6 @@ def _part_of(shell: ShellModel, e: int, panel_ids, p: int) -> str:
     if other >= 0:
         label += f" + {panel_ids[other]} rib (back to back)"
     return label
-
-
-def _divisions(shell: ShellModel, panel_ids) -> float:
-    per_panel = (shell.group == 0).sum() / max(len(panel_ids), 1)
-    return round(math.sqrt(per_panel))
-
-
-def _sig(value: float, digits: int) -> float:
-    """``value`` to ``digits`` significant digits. Results are rounded where CalculiX's own
-    round-off shows: its eigenvalues vary in the 7th digit between runs of the same deck."""
-    value = float(value)
-    if value == 0 or not math.isfinite(value):
-        return value
-    return round(value, digits - 1 - math.floor(math.log10(abs(value))))
 
 
 def _r(values, digits: int) -> list:

@@ -14,17 +14,12 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from ..errors import Issue
+from .buckling import significant
 
 #: the first factor counts as converged when it changes by less than this between two sizes
 TOLERANCE = 0.05
 #: at most this many sizes finer than the chosen one are tried (each is a CalculiX run)
 MAX_REFINEMENTS = 2
-
-
-def _sig(value: float) -> float:
-    """Four significant digits: CalculiX's eigenvalues vary in the 7th digit between runs of
-    one deck, and a job must give the same summary every time."""
-    return float(f"{value:.4g}")
 
 
 def _change(a: float, b: float) -> float:
@@ -51,10 +46,10 @@ def buckling_convergence(
         table.append((k, first_at(k)))
     converged = len(table) >= 2 and _change(table[-2][1], table[-1][1]) < TOLERANCE
     summary = {
-        "table": [{"per_side": per_side, "first": _sig(f)} for per_side, f in table],
+        "table": [{"per_side": per_side, "first": significant(f, 4)} for per_side, f in table],
         "converged": converged,
         "tolerance": TOLERANCE,
-        "smallest": _sig(min(f for _, f in table)),
+        "smallest": significant(min(f for _, f in table), 4),
     }
     issues = []
     if not converged:
