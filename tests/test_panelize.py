@@ -94,3 +94,38 @@ def test_grid_refuses_surfaces_with_openings(tmp_path):
     )
     with pytest.raises((GeometryError, InputError), match="boundary loop"):
         panelize(load_surface(path, "m"), Job(panelize={"method": "grid"}))
+
+
+def _column_on(surface, units_per_mm: float) -> list[float]:
+    """A design point (in the input's units) on the surface, off any regular grid line."""
+    local = surface.vertices[
+        np.argmin(np.linalg.norm(surface.vertices - [1337.0, 911.0, 0.0], axis=1))
+    ]
+    return ((local + surface.origin) * units_per_mm).tolist()
+
+
+def test_auto_makes_a_singular_point_a_vertex_even_on_a_four_sided_surface(vault_obj):
+    column = _column_on(vault_obj, 1e-3)  # the job's input is in metres
+    job = Job.from_dict(
+        {"input": {"units": "m"}, "panelize": {"panel_size": "1.2 m", "singular_points": [column]}}
+    )
+    layout = panelize(vault_obj, job)
+    assert layout.method == "field"  # a grid cannot put a vertex where asked
+    assert "singular_points" in layout.metrics["auto"]["reason"]
+    point = np.asarray(column) * 1e3 - vault_obj.origin
+    assert np.linalg.norm(layout.vertices - point, axis=1).min() < 1.0
+    assert not [i for i in layout.issues if i.code == "singular-point-missed"]
+
+
+def test_a_grid_that_misses_a_singular_point_says_so(vault_obj):
+    column = _column_on(vault_obj, 1e-3)
+    job = Job.from_dict(
+        {
+            "input": {"units": "m"},
+            "panelize": {"panel_size": "1.2 m", "method": "grid", "singular_points": [column]},
+        }
+    )
+    layout = panelize(vault_obj, job)
+    missed = [i for i in layout.issues if i.code == "singular-point-missed"]
+    assert missed and missed[0].severity == "warning"
+    assert "1 of 1 singular_points" in missed[0].message and '"field"' in missed[0].message

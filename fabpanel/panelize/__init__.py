@@ -14,7 +14,9 @@ Methods:
 ``auto`` picks ``grid`` for four-sided surfaces without openings; otherwise it makes both a
 ``skeleton`` and a ``field`` layout and keeps the one with the better score by the layout gates
 (:func:`.gates.layout_score`), recording both scores and the reason in ``metrics["auto"]``.
-Every layout is measured against the gates (:mod:`.gates`), whatever made it.
+Where ``singular_points`` are given it picks ``field``, the one method that makes every point a
+vertex. Every layout is measured against the gates (:mod:`.gates`), whatever made it, and a
+singular point that did not become a vertex is a ``singular-point-missed`` warning.
 """
 
 from __future__ import annotations
@@ -25,9 +27,10 @@ from dataclasses import replace
 import numpy as np
 
 from ..data import PanelLayout, Surface
-from ..errors import GeometryError
+from ..errors import GeometryError, Issue
 from ..job import Job
 from ..surface import SurfaceQuery
+from ..units import length_scale
 from .boundary import DesignBoundary
 from .estimate import check_panel_count
 from .gates import gate_issues, gate_measures, layout_score
@@ -43,6 +46,8 @@ def choose_method(surface: Surface, job: Job) -> str:
     method = job.panelize.method
     if method != "auto":
         return method
+    if job.panelize.singular_points:
+        return "field"
     return "grid" if is_four_sided(surface, job.panelize.corner_angle) else "compare"
 
 
@@ -66,7 +71,43 @@ def panelize(surface: Surface, job: Job, query: SurfaceQuery | None = None) -> P
             # a four-sided outline can still be a poor grid (a wavy strip, a notch): then the
             # field layout is made too and the better one kept
             layout = _first_passing(surface, job, query, ("grid", "field"), layout)
-    return replace(layout, origin=surface.origin)
+    if job.panelize.method == "auto" and job.panelize.singular_points:
+        auto = {
+            "chosen": "field",
+            "reason": "singular_points given: the field method makes each one a panel vertex",
+        }
+        layout = replace(layout, metrics={**layout.metrics, "auto": auto})
+    missed = _missed_points(layout, job, query, surface.origin)
+    return replace(layout, origin=surface.origin, issues=tuple(layout.issues) + missed)
+
+
+#: a singular point farther than this from every layout vertex was not made a vertex, mm
+POINT_TOLERANCE = 1.0
+
+
+def _missed_points(
+    layout: PanelLayout, job: Job, query: SurfaceQuery, origin: np.ndarray
+) -> tuple[Issue, ...]:
+    """A warning for the ``singular_points`` (input units, design coordinates) that are not a
+    layout vertex: each point's foot on the surface against the nearest vertex."""
+    if not job.panelize.singular_points:
+        return ()
+    scale = length_scale(job.input.units or "mm")
+    points = np.asarray(job.panelize.singular_points, dtype=float) * scale - origin
+    feet, _, _ = query.closest(points)
+    gaps = np.linalg.norm(feet[:, None] - layout.vertices[None], axis=2).min(axis=1)
+    missed = np.flatnonzero(gaps > POINT_TOLERANCE)
+    if not len(missed):
+        return ()
+    listed = ", ".join(f"{k + 1} ({gaps[k]:.0f} mm)" for k in missed[:6])
+    return (
+        Issue(
+            "singular-point-missed",
+            f"{len(missed)} of {len(points)} singular_points are not panel vertices: point "
+            f"{listed} from the nearest vertex; the {layout.method} method does not insert "
+            f'them: use [panelize] method = "field" (or "auto")',
+        ),
+    )
 
 
 def _first_passing(
