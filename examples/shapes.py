@@ -510,7 +510,7 @@ path = "{input}"{input_pad}# design surface: OBJ, STL, PLY, OFF, GLB, STEP, IGES
 {units_line}
 
 [panelize]
-method = "auto"                # auto (grid if four-sided, else the better of skeleton and field) | grid | skeleton | field | layout
+method = "auto"                # auto (grid if four-sided and it passes the gates, else field, or the better of field and skeleton) | grid | skeleton | field | layout
 panel_size = "{panel_size}"{size_pad}# target panel edge length; an unrolled sheet must fit the plate
 # grid_u = 10                  # grid: explicit panel counts along the grid directions
 # grid_v = 8
@@ -597,16 +597,13 @@ report = true
 #: per example: title, input file, units (None: the file carries them), panel size
 JOBS = {
     "one-opening": (
-        "one-opening roof, 16 x 12 m, one elliptical opening (skeleton method)",
+        "one-opening roof, 16 x 12 m, one elliptical opening",
         "one-opening.obj",
         "m",
         "1.2 m",
     ),
     "pavilion": (
-        (
-            "'Chengdu Flowers'-like pavilion, about 20 m across, three support "
-            "openings (skeleton method)"
-        ),
+        ("'Chengdu Flowers'-like pavilion, about 20 m across, three support openings"),
         "pavilion.obj",
         "m",
         "1.0 m",

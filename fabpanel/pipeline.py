@@ -199,7 +199,9 @@ def _run_stages(
         progress, "panelize", None, lambda: panelize(surface, job, query), issues
     )
     issues += layout.issues
-    progress.finish("panelize", timings["panelize"], f"{len(layout.quads)} panels")
+    progress.finish(
+        "panelize", timings["panelize"], f"{len(layout.quads)} panels ({layout.method})"
+    )
     state["layout"] = layout
     ran: list[Stage] = ["panelize"]
 
