@@ -151,25 +151,23 @@ def _place(
     boundary, except ``pinned`` ones, if ``slide``) and put on the surface; boundary nodes
     exactly on the design boundary.
 
-    The smoothing squares the panels. Where that fails a gate on corners or edges, a second
-    one from there also holds corners and edges in the gates' bands (:mod:`.gate_band`); it
-    is kept where it scores better on the gates' own measures and leaves no more panels off
-    the plate (where the flattening's scale changes fast, on a trumpet, the two pull against
-    each other and the first is better). A layout that passes is left as it is: the second
+    The smoothing squares the panels. Where that fails a gate on corners or edges and every
+    panel fits the plate (otherwise the caller pins nodes or makes the layout again, smaller),
+    a second one from there also holds corners and edges in the gates' bands
+    (:mod:`.gate_band`); it is kept where it scores better on the gates' own measures and
+    every panel still fits (where the flattening's scale changes fast, on a trumpet, the two
+    pull against each other and the first is better). A layout that passes is left as it is: the second
     smoothing costs a second at a thousand panels, and trades the smallest corner for the
     share in the band."""
     relaxed, relaxation = _relax(domain, mesh, slide, pinned, mesh.nodes, band=False)
     vertices = _on_surface(domain, mesh, relaxed)
     before = band_measures(vertices, mesh.quads, domain.target)
-    if before.passes:
-        return vertices, relaxation
+    if before.passes or oversize_panels(vertices, mesh.quads, job).any():
+        return vertices, relaxation  # passes, or will be pinned or made again smaller
     banded, band_relaxation = _relax(domain, mesh, slide, pinned, relaxed, band=True)
     in_band = _on_surface(domain, mesh, banded)
     after = band_measures(in_band, mesh.quads, domain.target)
-    better = after.score > before.score and (
-        oversize_panels(in_band, mesh.quads, job).sum()
-        <= oversize_panels(vertices, mesh.quads, job).sum()
-    )
+    better = after.score > before.score and not oversize_panels(in_band, mesh.quads, job).any()
     relaxation["gate_band"] = {
         "score_before": round(before.score, 4),
         "score_after": round(after.score, 4),
