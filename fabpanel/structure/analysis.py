@@ -29,6 +29,14 @@ import numpy as np
 from ..errors import FabpanelError, GeometryError, Issue
 from . import ccx
 from .assumptions import assumptions
+from .balance import (
+    case_reactions,
+    mass_check,
+    panels_built,
+    stray_knots,
+    support_sum_issues,
+    support_summary,
+)
 from .bolt_checks import bolt_checks, corrected_reactions, write_bolts_csv
 from .bolt_layout import bolt_layout
 from .buckling import MIN_POSITIVE_MODES, buckle, linear_buckling, node_values, significant
@@ -40,14 +48,12 @@ from .checks import (
     en1990_combinations,
     membrane_compression,
     panel_labels,
-    relative_error,
     span_of,
 )
 from .connectors import JointBolts, attach
 from .convergence import MAX_REFINEMENTS, buckling_convergence
 from .forming import sprung_sheet_findings
-from .loads import gravity_forces
-from .mesh import ShellModel, built_share, sandwich_model, sandwich_settings
+from .mesh import ShellModel, sandwich_model, sandwich_settings
 from .static import run_static
 from .supports import (
     anchor_nodes,
@@ -64,11 +70,6 @@ from .weld_checks import FilletWeld, weld_checks
 
 log = logging.getLogger(__name__)
 
-#: mass of the shell model against the sum of the part masses (holes and trims are modelled,
-#: so what is left is meshing: the thesis found 0.07 %)
-MASS_TOLERANCE = 0.005
-#: reactions against the applied load per case (the thesis's Tables 5-7)
-REACTION_TOLERANCE = 0.001
 #: at most this many elements per panel side when the size is chosen automatically
 AUTO_MAX_DIVISIONS = 4
 
@@ -141,13 +142,6 @@ def element_count(developed, job, n: int) -> int:
     neighbours = np.asarray(developed.layout.side_neighbours)
     rib_sides = int(((neighbours < 0) | (np.arange(m)[:, None] < neighbours)).sum())
     return m * n * n * (2 if sandwich else 1) + (n * rib_sides if sandwich else 0)
-
-
-def panels_built(model) -> np.ndarray:
-    """(m,) bool: the panels of a :class:`~fabpanel.data.Model` that have parts (a panel the
-    build stage could not build has none)."""
-    with_parts = {part.panel_id for part in model.parts}
-    return np.array([pid in with_parts for pid in model.developed.panel_ids], bool)
 
 
 def shell_of(model, job, divisions: int | None = None) -> ShellModel:
@@ -298,78 +292,17 @@ def _analyse(
     run = run_static(shell, cases, folder, threads, st.timeout, executable)
     dat, disp, stress = corrected_reactions(shell, run.dat), run.displacement, run.stress
     bottom, top, knots = run.bottom, run.top, run.knots
-    el_panel, el_side = panel_labels(shell)
-    junction = np.zeros(len(shell.nodes), bool)
-    junction[shell.quads[el_side[: len(shell.quads)] >= 0].ravel()] = True
-    stray = knots[~junction[knots]] if len(knots) else knots
-    if len(stray):
-        issues.append(
-            Issue(
-                "stray-knots",
-                f"CalculiX made {len(stray)} knots away from the "
-                f"rib/sheet junctions (flipped or kinked sheet elements stiffen the "
-                f"model there)",
-                severity="warning",
-            )
-        )
+    el_panel, _ = panel_labels(shell)
+    stray, knot_issues = stray_knots(shell, knots)
+    issues += knot_issues
     u_el = np.stack([0.5 * (d[bottom][..., :3] + d[top][..., :3]) for d in disp])  # (C,E,8,3)
     s_bot = np.stack([s[bottom] for s in stress])  # (C,E,8,6)
     s_top = np.stack([s[top] for s in stress])
 
     # ---- mass and reactions ----------------------------------------------------------------
-    # a panel not built is in the shell model but has no parts: the check compares the built
-    # panels' share of the model (by element mass, a shared rib half each) with their parts
-    parts_mass = float(sum(p.mass for p in model.parts))
-    lumped = float(shell.lumped_mass.sum()) if shell.lumped_mass is not None else 0.0
-    built = panels_built(model)
-    element_mass = shell.density * shell.thickness * shell.element_areas()
-    share = float((element_mass * built_share(shell, built)).sum() / element_mass.sum())
-    fe_total = dat.mass[0] * 1e3 + lumped
-    fe_mass = dat.mass[0] * 1e3 * share + lumped
-    mass_error = (fe_mass - parts_mass) / parts_mass if parts_mass > 0 else 0.0
-    not_built = [pid for pid, ok in zip(panel_ids, built) if not ok]
-    supp = np.zeros(len(shell.nodes), bool)
-    supp[shell.supports] = True
-    reactions = {}
-    applied_loads = []
-    for c, case in enumerate(cases):
-        if case.gravity is not None:
-            applied = gravity_forces(shell, case.gravity)
-        elif case.forces is not None:
-            applied = case.forces
-        else:  # a case without loads (as the deck writes it)
-            applied = np.zeros((len(shell.nodes), 3))
-        applied_loads.append(applied)
-        total = applied.sum(axis=0)
-        reaction = dat.forces[c] - applied[supp].sum(axis=0)
-        error = relative_error(-reaction, total)
-        reactions[case.name] = {
-            "description": case_info[case.name].description,
-            "action": case_info[case.name].action,
-            "applied_N": _r(total, 2),
-            "reaction_N": _r(reaction, 2),
-            "on_support_nodes_N": _r(applied[supp].sum(axis=0), 2),
-            "error": significant(error, 2),
-            "ok": bool(error <= REACTION_TOLERANCE),
-        }
-        if error > REACTION_TOLERANCE:
-            issues.append(
-                Issue(
-                    "reaction-mismatch",
-                    f"load case {case.name}: reactions differ from the applied load by {error:.3%}",
-                    severity="error",
-                )
-            )
-    if abs(mass_error) > MASS_TOLERANCE:
-        issues.append(
-            Issue(
-                "mass-mismatch",
-                f"shell model mass {fe_mass:.1f} kg"
-                f"{' (built panels)' if not_built else ''} differs from "
-                f"the parts' {parts_mass:.1f} kg by {mass_error:.2%}",
-                severity="error",
-            )
-        )
+    mass, mass_issues = mass_check(shell, model, dat, panel_ids)
+    reactions, applied_loads, reaction_issues = case_reactions(shell, cases, case_info, dat)
+    issues += mass_issues + reaction_issues
 
     # ---- combinations ----------------------------------------------------------------------
     combos = (
@@ -382,7 +315,7 @@ def _analyse(
     f_uls = np.stack([c.factors for c in uls])
     f_sls = np.stack([c.factors for c in sls])
     per_support = support_reactions(shell, names, dat.node_forces, applied_loads)
-    issues += _support_sum_issues(per_support, reactions)
+    issues += support_sum_issues(per_support, reactions)
     combined_supports = per_support.combined(
         [f"{c.kind} {c.name}" for c in uls + sls], np.concatenate([f_uls, f_sls])
     )
@@ -455,10 +388,9 @@ def _analyse(
             "displacement_mm": round(float(disp_el[mine].max()), 3),
             "buckling_modes": [m["mode"] for m in modes[:MIN_POSITIVE_MODES] if pid in m["panels"]],
         }
-    mass_ok = abs(mass_error) <= MASS_TOLERANCE
     reactions_ok = all(r["ok"] for r in reactions.values())
     checks = {
-        "mass": mass_ok,
+        "mass": mass["ok"],
         "reactions": reactions_ok,
         "deflection": max_disp <= limit,
         "stress": max_vm <= fy,
@@ -504,7 +436,7 @@ def _analyse(
             },
             "stiffeners": (
                 "mass lumped on the panel corner lines, stiffness not modelled"
-                if lumped > 0
+                if mass["lumped_stiffeners_kg"] > 0
                 else "none in the model"
             ),
         },
@@ -526,27 +458,9 @@ def _analyse(
                 if st.support_fixity == "pinned"
                 else "translations of every node of the boundary ribs (fixed)"
             ),
-            "reactions": _support_summary(per_support, combined_supports),
+            "reactions": support_summary(per_support, combined_supports),
         },
-        "mass": {
-            "model_kg": round(fe_mass, 2),
-            "parts_kg": round(parts_mass, 2),
-            "lumped_stiffeners_kg": round(lumped, 2),
-            "error": significant(mass_error, 3),
-            "tolerance": MASS_TOLERANCE,
-            "ok": mass_ok,
-            **(
-                {
-                    "panels_not_built": not_built,
-                    "not_built_kg": round(fe_total - fe_mass, 2),
-                    "model_total_kg": round(fe_total, 2),
-                    "note": "panels not built are in the shell model (from their developed "
-                    "surface, without stiffeners) and left out of the mass check",
-                }
-                if not_built
-                else {}
-            ),
-        },
+        "mass": mass,
         "load_cases": reactions,
         "combinations": {"ULS": [c.name for c in uls], "SLS": [c.name for c in sls]},
         "deflection": {
@@ -605,47 +519,6 @@ def _analyse(
         tuple(issues),
         metrics,
     )
-
-
-def _support_sum_issues(per_support, reactions: dict) -> list[Issue]:
-    """The supports' reactions must add up to the total CalculiX printed, per case."""
-    issues = []
-    for c, case in enumerate(per_support.cases):
-        total = np.asarray(reactions[case]["reaction_N"], float)
-        summed = per_support.force[c].sum(axis=0)
-        if relative_error(summed, total) > REACTION_TOLERANCE:
-            issues.append(
-                Issue(
-                    "reaction-mismatch",
-                    f"load case {case}: the supports' reactions add up to "
-                    f"{np.round(summed / 1e3, 2).tolist()} kN, not the total "
-                    f"{np.round(total / 1e3, 2).tolist()} kN",
-                    severity="error",
-                )
-            )
-    return issues
-
-
-def _support_summary(per_support, combined) -> list[dict]:
-    """Per support: where it is, its reaction per characteristic case and the envelope of
-    the combinations (kN, kN m)."""
-    out = []
-    for s, name in enumerate(per_support.names):
-        force = combined.force[:, s] / 1e3
-        out.append(
-            {
-                "support": name,
-                "centroid_mm": _r(per_support.centroids[s], 1),
-                "cases_kN": {
-                    case: _r(per_support.force[c, s] / 1e3, 3)
-                    for c, case in enumerate(per_support.cases)
-                },
-                "max_kN": _r(force.max(axis=0), 3),
-                "min_kN": _r(force.min(axis=0), 3),
-                "max_moment_kNm": _r(np.abs(combined.moment[:, s]).max(axis=0) / 1e6, 3),
-            }
-        )
-    return out
 
 
 def _equations(log_path: Path) -> int:
