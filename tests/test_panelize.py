@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from fabpanel import GeometryError, Job, load_surface, panelize
+from fabpanel.data import Surface
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"  # shipped: fabpanel demo
@@ -96,36 +97,40 @@ def test_grid_refuses_surfaces_with_openings(tmp_path):
         panelize(load_surface(path, "m"), Job(panelize={"method": "grid"}))
 
 
-def _column_on(surface, units_per_mm: float) -> list[float]:
-    """A design point (in the input's units) on the surface, off any regular grid line."""
-    local = surface.vertices[
-        np.argmin(np.linalg.norm(surface.vertices - [1337.0, 911.0, 0.0], axis=1))
-    ]
-    return ((local + surface.origin) * units_per_mm).tolist()
+def _plate(width: float = 6000.0, depth: float = 4000.0, spacing: float = 250.0) -> Surface:
+    """A four-sided, gently curved plate in mm (z = x^2 / 60 m), triangulated on a grid."""
+    nx, ny = int(width / spacing) + 1, int(depth / spacing) + 1
+    xx, yy = np.meshgrid(np.linspace(0, width, nx), np.linspace(0, depth, ny), indexing="ij")
+    vertices = np.column_stack([xx.ravel(), yy.ravel(), xx.ravel() ** 2 / 60000.0])
+    ids = np.arange(nx * ny).reshape(nx, ny)
+    a, b, c, d = ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]
+    faces = np.concatenate([np.stack([a, b, c], -1), np.stack([a, c, d], -1)]).reshape(-1, 3)
+    loop = np.concatenate([ids[:, 0], ids[-1, 1:], ids[-2::-1, -1], ids[0, -2:0:-1]])
+    return Surface(vertices, faces, (loop,), Path("plate.obj"), "obj", "mm")
 
 
-def test_auto_makes_a_singular_point_a_vertex_even_on_a_four_sided_surface(vault_obj):
-    column = _column_on(vault_obj, 1e-3)  # the job's input is in metres
+COLUMN = [2130.0, 1370.0, 2130.0**2 / 60000.0]  # mm, on the plate, off any 1 m grid line
+
+
+def test_auto_makes_a_singular_point_a_vertex_even_on_a_four_sided_surface():
     job = Job.from_dict(
-        {"input": {"units": "m"}, "panelize": {"panel_size": "1.2 m", "singular_points": [column]}}
+        {"input": {"units": "mm"}, "panelize": {"panel_size": "1 m", "singular_points": [COLUMN]}}
     )
-    layout = panelize(vault_obj, job)
+    layout = panelize(_plate(), job)
     assert layout.method == "field"  # a grid cannot put a vertex where asked
     assert "singular_points" in layout.metrics["auto"]["reason"]
-    point = np.asarray(column) * 1e3 - vault_obj.origin
-    assert np.linalg.norm(layout.vertices - point, axis=1).min() < 1.0
+    assert np.linalg.norm(layout.vertices - COLUMN, axis=1).min() < 1.0
     assert not [i for i in layout.issues if i.code == "singular-point-missed"]
 
 
-def test_a_grid_that_misses_a_singular_point_says_so(vault_obj):
-    column = _column_on(vault_obj, 1e-3)
+def test_a_grid_that_misses_a_singular_point_says_so():
     job = Job.from_dict(
         {
-            "input": {"units": "m"},
-            "panelize": {"panel_size": "1.2 m", "method": "grid", "singular_points": [column]},
+            "input": {"units": "mm"},
+            "panelize": {"panel_size": "1 m", "method": "grid", "singular_points": [COLUMN]},
         }
     )
-    layout = panelize(vault_obj, job)
+    layout = panelize(_plate(), job)
     missed = [i for i in layout.issues if i.code == "singular-point-missed"]
     assert missed and missed[0].severity == "warning"
     assert "1 of 1 singular_points" in missed[0].message and '"field"' in missed[0].message
