@@ -89,6 +89,11 @@ def load(job: Job):
 
     if job.input_path is None:
         raise InputError("the job names no input surface; set [input] path or pass INPUT")
+    if not Path(job.input_path).exists():
+        raise InputError(
+            f"{Path(job.input_path).name}: file not found ({job.input_path}); check [input] path "
+            "in the job (relative to the job file) or the INPUT argument"
+        )
     return load_surface(job.input_path, job.input.units, crease_angle=job.input.crease_angle)
 
 

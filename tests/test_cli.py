@@ -142,3 +142,13 @@ def test_python_dash_m_runs():
         [sys.executable, "-m", "fabpanel", "--help"], capture_output=True, text=True, check=False
     )
     assert result.returncode == 0 and "export" in result.stdout
+
+
+def test_a_job_whose_surface_is_missing_names_the_key(tmp_path):
+    job = tmp_path / "job.toml"
+    job.write_text('[input]\npath = "no_such_file.obj"\nunits = "m"\n')
+    result = _run("export", str(job), "--out", str(tmp_path / "out"))
+    assert result.exit_code == 2
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and "no_such_file.obj: file not found" in lines[0]
+    assert "[input] path" in lines[0] and not (tmp_path / "out").exists()

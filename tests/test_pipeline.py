@@ -68,6 +68,10 @@ def test_output_contract(vault_run):
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["units"]["length"] == "mm"
     assert len(manifest["panels"]) == GRID_U * GRID_V
+    # the layout gates in the summary too, where a user looks first
+    gates = json.loads((out / "report" / "summary.json").read_text())["panels"]["gates"]
+    assert gates["panels"] == GRID_U * GRID_V and gates["manifold"]
+    assert 0 < gates["count_ratio"] and "edges_in_band" in gates and "corners_in_60_120" in gates
     assert len(manifest["parts"]) == 10 * GRID_U * GRID_V
     for panel in manifest["panels"]:
         assert (out / "model" / "panels" / f"{panel['id']}.step").is_file()

@@ -27,6 +27,10 @@ def summarise(result, timings: dict[str, float], structure: dict) -> dict:
             "edge_length_mm": m["edge_length_mm"],
             "corner_angle_deg": m["corner_angle_deg"],
             "largest_panel_mm": m["largest_panel_mm"],
+            # the layout gates' measures (count, edge band and histogram, shortest edge,
+            # narrowest panel, corners, topology, score) and why ``auto`` chose the method
+            "gates": m.get("gates"),
+            "chosen_because": m.get("auto", {}).get("reason"),
         }
     if result.developed is not None:
         m = result.developed.metrics
