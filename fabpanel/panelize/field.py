@@ -156,9 +156,9 @@ def _place(
     a second one from there also holds corners and edges in the gates' bands
     (:mod:`.gate_band`); it is kept where it scores better on the gates' own measures and
     every panel still fits (where the flattening's scale changes fast, on a trumpet, the two
-    pull against each other and the first is better). A layout that passes is left as it is: the second
-    smoothing costs a second at a thousand panels, and trades the smallest corner for the
-    share in the band."""
+    pull against each other and the first is better). A layout that passes is left as it is:
+    the second smoothing costs a second at a thousand panels, and trades the smallest corner
+    for the share in the band."""
     relaxed, relaxation = _relax(domain, mesh, slide, pinned, mesh.nodes, band=False)
     vertices = _on_surface(domain, mesh, relaxed)
     before = band_measures(vertices, mesh.quads, domain.target)
