@@ -12,7 +12,11 @@
 - ``wavy_strip``: a 24 m strip 2.5-5 m wide on a sinusoidal centre line, wavy in height: only
   two to five panels across, everything near a boundary;
 - ``quarry``: a plaza with 100° corners and a concave notch, two openings 0.8 m apart and one
-  0.6 m from the outline: gaps narrower than a panel.
+  0.6 m from the outline: gaps narrower than a panel;
+- ``ellipse_shell``: an elliptic shell 12 x 5 m, 2 m rise: its ends round off at 1.04 m radius,
+  about one panel, with no corner for the layout's corners to sit on;
+- ``kidney``: a smooth kidney-shaped outline 11 x 5 m with blunt ends and a 1.4 m opening near
+  its waist: no corner anywhere, and an opening only 1.4 panels across.
 
 Generated with the planar-domain helpers of ``examples/shapes.py`` (boundary resampled, a
 triangular lattice inside, Delaunay culled to the domain, lifted by a height function), so the
@@ -27,6 +31,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from shapely import affinity
 from shapely.geometry import Point, Polygon, box
 from shapely.ops import unary_union
 
@@ -130,6 +135,19 @@ def quarry_mesh() -> tuple[np.ndarray, np.ndarray]:
     return _mesh(domain, lambda x, y: 0.8 + 0.012 * (x**2 - y**2))
 
 
+def ellipse_shell_mesh() -> tuple[np.ndarray, np.ndarray]:
+    domain = affinity.scale(Point(0, 0).buffer(1.0, quad_segs=64), 6.0, 2.5)
+    return _mesh(domain, lambda x, y: 2.0 * (1 - (x / 6) ** 2 - (y / 2.5) ** 2))
+
+
+def kidney_mesh() -> tuple[np.ndarray, np.ndarray]:
+    t = np.linspace(0, 2 * np.pi, 200, endpoint=False)
+    radius = 4 + 1.2 * np.cos(2 * t) + 0.6 * np.sin(3 * t)
+    domain = Polygon(np.column_stack([1.3 * radius * np.cos(t), 0.8 * radius * np.sin(t)]))
+    domain = domain.difference(Point(1.5, 0.3).buffer(0.7, 24))
+    return _mesh(domain, lambda x, y: 1.5 * np.exp(-(x**2 + y**2) / 30))
+
+
 SHAPES = {
     "canopy4": canopy4_mesh,
     "dome_oculus": dome_oculus_mesh,
@@ -137,6 +155,8 @@ SHAPES = {
     "funnel": funnel_mesh,
     "wavy_strip": wavy_strip_mesh,
     "quarry": quarry_mesh,
+    "ellipse_shell": ellipse_shell_mesh,
+    "kidney": kidney_mesh,
 }
 
 

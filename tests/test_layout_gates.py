@@ -163,8 +163,8 @@ def test_auto_keeps_a_field_layout_that_passes_every_gate_without_making_the_oth
 
 
 def test_auto_compares_both_methods_when_the_field_layout_fails_a_gate(tmp_path):
-    # the funnel's field layout puts a boundary vertex of one panel on a smooth lobe (165°)
-    layout = fp.panelize(_hard_shape("funnel", tmp_path), _job("1 m"))
+    # the kidney's 1.4 m opening leaves 93 % of the field layout's corners in 60-120°
+    layout = fp.panelize(_hard_shape("kidney", tmp_path), _job("1 m"))
     auto = layout.metrics["auto"]
     assert set(auto["scores"]) == {"skeleton", "field"}
     assert auto["chosen"] == layout.method == "field"
@@ -256,7 +256,7 @@ def _hard_shape(name: str, folder: Path) -> Surface:
     return fp.load_surface(target, "m")
 
 
-@pytest.mark.parametrize("name", ["canopy4", "dome_oculus", "hypar_hole", "funnel"])
+@pytest.mark.parametrize("name", ["canopy4", "dome_oculus", "hypar_hole"])
 def test_field_layouts_of_hard_shapes_meet_the_size_gates(tmp_path, name):
     surface = _hard_shape(name, tmp_path)
     layout = fp.panelize(surface, _job("1 m", method="field"))
@@ -267,10 +267,9 @@ def test_field_layouts_of_hard_shapes_meet_the_size_gates(tmp_path, name):
     # measured 0.895-1.0; canopy4's 1.1-1.6 m openings get eight edges of 0.45 m each
     assert gates["edges_in_band"] >= 0.88
     assert gates["shortest_edge_vs_panel_size"] >= 0.3  # measured 0.37-0.62
-    # corners: measured 44-159 degrees, 93-98 % within 60-120; the worst is a boundary vertex
-    # of one panel on the funnel's rounded lobe (see the README's limits)
-    assert gates["corners_in_45_135"] >= 0.99
-    assert gates["corners_in_60_120"] >= 0.92
+    # corners: measured 46-134 degrees, 95.5-98 % within 60-120
+    assert gates["corners_in_45_135"] == 1.0
+    assert gates["corners_in_60_120"] >= 0.95
     assert not [i for i in layout.issues if i.code == "layout-narrow-panel"]
 
 
@@ -299,6 +298,32 @@ def test_holding_the_gate_bands_passes_every_gate_where_squaring_alone_did_not(t
     assert gates["edges_in_band"] >= 0.9  # measured 0.949, 0.957
     assert gates["shortest_edge_vs_panel_size"] >= 0.3
     assert gates["count_ratio"] <= 1.3
+
+
+def test_a_layout_corner_on_a_smooth_lobe_is_dissolved(tmp_path):
+    # gmsh puts a boundary vertex of one panel on the funnel's 2.5 m lobe: 159-165° however
+    # the outline nodes slide; dissolved, its inner vertex has three panels
+    layout = fp.panelize(_hard_shape("funnel", tmp_path), _job("1 m", method="field"))
+    assert layout.metrics["field"]["relaxation"]["false_corners"] == {
+        "dissolved": 1,
+        "kept": True,
+    }
+    gates = layout.metrics["gates"]
+    assert gates["corners_in_45_135"] == 1.0  # measured 61-134°
+    assert gates["corners_in_60_120"] >= 0.95  # measured 0.963
+    assert gates["euler_characteristic"] == gates["surface_euler_characteristic"]
+    assert gates["edges_in_band"] >= 0.9 and gates["shortest_edge_vs_panel_size"] >= 0.3
+    assert gates["count_ratio"] <= 1.3  # 94 panels for 76.3 m²
+
+
+def test_the_corner_at_a_rounded_end_is_held_in_the_gates_by_its_neighbours(tmp_path):
+    # the ellipse's ends round off at 1.04 m: its corners there were 137-138°, outside the
+    # band's reach until the band held the corners of one-panel vertices that slide too
+    layout = fp.panelize(_hard_shape("ellipse_shell", tmp_path), _job("1 m", method="field"))
+    gates = layout.metrics["gates"]
+    assert gates["corners_in_45_135"] == 1.0  # measured 62-133°
+    assert gates["corners_in_60_120"] >= 0.95  # measured 0.992
+    assert gates["edges_in_band"] >= 0.9  # measured 1.0
 
 
 # ---------------------------------------------------------------------------------------------

@@ -40,10 +40,11 @@ from ..units import length_scale
 from .boundary import DesignBoundary
 from .corners import OutlineCorners, outline_corners
 from .decompose import oversize_panels
+from .false_corners import dissolve_corners, one_panel_nodes
 from .gate_band import band_measures
-from .gates import MIN_EDGE
+from .gates import CORNER_LIMITS, MIN_EDGE
 from .lift import FlatMesh, barycentric_weights
-from .quality import layout_metrics
+from .quality import corner_angles, layout_metrics
 from .slide import BoundaryTrack, SlidingNodes
 
 log = logging.getLogger(__name__)
@@ -95,7 +96,8 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
             surface, flat, scale, outline, domain.points, job, size
         )
         mesh = _FlatQuads(nodes, quads, on_curve, size)
-        vertices, info["relaxation"], fits = _placed_on_plate(domain, mesh, job)
+        mesh, vertices, info["relaxation"], fits = _placed_without_false_corners(domain, mesh, job)
+        quads = mesh.quads
         if fits or plate_round == PLATE_ROUNDS:
             break
         size *= PLATE_SHRINK  # some panels miss the plate: smaller panels everywhere
@@ -185,6 +187,57 @@ def _on_surface(domain: _Domain, mesh: _FlatQuads, nodes: np.ndarray) -> np.ndar
     return vertices
 
 
+def _placed_without_false_corners(
+    domain: _Domain, mesh: _FlatQuads, job: Job
+) -> tuple[_FlatQuads, np.ndarray, dict, bool]:
+    """:func:`_placed_on_plate`; where a corner of the layout on a smooth stretch of the
+    outline stays wider than the gates' 135° after it, that corner dissolved
+    (:mod:`.false_corners`) and the layout placed again, kept if it scores better on the
+    gates' measures and fits the plate as well. Returns the mesh used with the results."""
+    vertices, relaxation, fits = _placed_on_plate(domain, mesh, job)
+    wide = _wide_false_corners(domain, mesh, vertices)
+    if not len(wide):
+        return mesh, vertices, relaxation, fits
+    movable = mesh.on_curve & ~_fixed_nodes(domain, mesh.nodes)
+    _, on_corner = domain.track.locate(mesh.nodes[movable], CORNER_TOLERANCE * mesh.size)
+    movable[np.flatnonzero(movable)[on_corner]] = False
+    nodes, quads, on_curve, dissolved = dissolve_corners(
+        mesh.nodes, mesh.quads, mesh.on_curve, wide, movable
+    )
+    if not dissolved:
+        return mesh, vertices, relaxation, fits
+    edited = _FlatQuads(nodes, quads, on_curve, mesh.size)
+    again, again_relaxation, again_fits = _placed_on_plate(domain, edited, job)
+    before = band_measures(vertices, mesh.quads, domain.target).score
+    after = band_measures(again, edited.quads, domain.target).score
+    if after <= before or (fits and not again_fits):
+        relaxation["false_corners"] = {"dissolved": dissolved, "kept": False}
+        return mesh, vertices, relaxation, fits
+    again_relaxation["false_corners"] = {"dissolved": dissolved, "kept": True}
+    return edited, again, again_relaxation, again_fits
+
+
+def _wide_false_corners(domain: _Domain, mesh: _FlatQuads, vertices: np.ndarray) -> np.ndarray:
+    """Ids of the layout's corners (boundary nodes of one panel) whose angle on the surface
+    is over the gates' hard limit and that are not corners of the outline."""
+    corners = one_panel_nodes(mesh.quads, mesh.on_curve)
+    if not len(corners):
+        return corners
+    _, on_corner = domain.track.locate(mesh.nodes[corners], CORNER_TOLERANCE * mesh.size)
+    corners = corners[~on_corner]
+    quad, at = np.nonzero(mesh.quads[:, :, None] == corners[None, None, :])[:2]
+    angle = corner_angles(vertices[mesh.quads[quad]])[np.arange(len(quad)), at]
+    return mesh.quads[quad, at][angle > CORNER_LIMITS[1]]
+
+
+def _fixed_nodes(domain: _Domain, nodes: np.ndarray) -> np.ndarray:
+    """(n,) bool: the nodes nearest the singular points, which stay where they were asked."""
+    fixed = np.zeros(len(nodes), dtype=bool)
+    for point in domain.points:
+        fixed[int(np.argmin(np.linalg.norm(nodes - point, axis=1)))] = True
+    return fixed
+
+
 def _placed_on_plate(domain: _Domain, mesh: _FlatQuads, job: Job) -> tuple[np.ndarray, dict, bool]:
     """The layout's vertices, the smoothing's report and whether every panel fits the plate.
 
@@ -226,9 +279,7 @@ def _relax(
         quads = quads[:, [0, 3, 2, 1]]  # counter-clockwise in the flat domain
     centres = nodes[quads].mean(axis=1)
     local = _interpolate_scale(flat_mesh, domain.scale, centres)
-    fixed = np.zeros(len(nodes), dtype=bool)
-    for point in domain.points:  # the embedded singular points stay where they were asked
-        fixed[int(np.argmin(np.linalg.norm(nodes - point, axis=1)))] = True
+    fixed = _fixed_nodes(domain, nodes)
     sliding = None
     if track is not None:
         candidates = np.flatnonzero(on_curve & ~fixed & ~pinned)
@@ -243,7 +294,12 @@ def _relax(
         reference=size * local,
         sliding=sliding,
         band=gate_band(
-            nodes, flat_mesh.interpolate(nodes), quads, np.repeat(size * local, 4), domain.target
+            nodes,
+            flat_mesh.interpolate(nodes),
+            quads,
+            np.repeat(size * local, 4),
+            domain.target,
+            sliding=None if sliding is None else sliding.ids,
         )
         if band
         else None,

@@ -149,11 +149,19 @@ def angle_gradients(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 
 def gate_band(
-    flat: np.ndarray, on_surface: np.ndarray, quads: np.ndarray, reference: np.ndarray, size: float
+    flat: np.ndarray,
+    on_surface: np.ndarray,
+    quads: np.ndarray,
+    reference: np.ndarray,
+    size: float,
+    sliding: np.ndarray | None = None,
 ) -> GateBand:
     """The limits of every corner of the counter-clockwise flat ``quads`` (see the module
-    docstring), with the arguments of :func:`chord_metrics`; the one corner at a vertex of one
-    panel (a corner of the outline) gets none, its angle is the outline's."""
+    docstring), with the arguments of :func:`chord_metrics`. The one corner at a vertex of one
+    panel gets none where that vertex is a corner of the outline (its angle is the outline's);
+    where it slides along a smooth stretch (``sliding``, node ids; none by default) it gets
+    the same limits as any other: on a rounded end (the tip of an ellipse, a lobe) its angle is
+    made by where it and its neighbours sit, and left alone it opens to 140-165°."""
     metric = chord_metrics(flat, on_surface, quads, reference, size)
     angle = np.radians(corner_angles(on_surface[quads]).ravel())
     good = np.radians([CORNER_GOOD[0] + MARGIN, CORNER_GOOD[1] - MARGIN])
@@ -175,7 +183,10 @@ def gate_band(
             lower[narrowest[:needed]] = hard[0]
     hard_lower = np.full(len(angle), hard[0])
     hard_upper = np.full(len(angle), hard[1])
-    loose = count[centre] == 1
+    on_smooth_outline = np.zeros(len(flat), dtype=bool)
+    if sliding is not None:
+        on_smooth_outline[sliding] = True
+    loose = (count[centre] == 1) & ~on_smooth_outline[centre]
     for limit, value in (
         (lower, 0.0),
         (upper, 2.0 * np.pi),
