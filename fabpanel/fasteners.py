@@ -33,7 +33,7 @@ from typing import Literal
 
 import numpy as np
 
-from .geom.polygon import resample_closed
+from .geom.polygon import graded_ring
 
 #: the tool keeps this clear of the rib's inner face, mm
 TOOL_RIB_GAP = 3.0
@@ -233,8 +233,9 @@ def rounded_rectangle(
 ) -> np.ndarray:
     """(n, 2) float: the rectangle ``|x| <= x_half``, ``y_low <= y <= y_high`` with corners
     rounded to ``radius`` (at most half its width), counter-clockwise: the arcs a point every
-    2 mm or less, the straight sides at most ``step`` mm (a periodic cubic through them keeps
-    within 0.02 mm of the outline: :func:`tests.test_access`)."""
+    2 mm or less, the straight sides graded from 1.5 mm at the arcs to at most ``step`` mm
+    (:func:`.geom.polygon.graded_ring`: a periodic cubic through them keeps within 0.02 mm of
+    the outline, tests/test_openings.py)."""
     r = min(radius, x_half, (y_high - y_low) / 2)
     corners = [
         (x_half - r, y_low + r, -90.0),
@@ -248,4 +249,4 @@ def rounded_rectangle(
         arc = np.c_[cx + r * np.cos(angles), cy + r * np.sin(angles)]
         points.append(arc)
     ring = np.concatenate(points)
-    return resample_closed(ring, step)
+    return graded_ring(ring, longest=step)
