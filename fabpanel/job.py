@@ -882,6 +882,11 @@ class StructureSection(_Section):
     #: without CalculiX the export still completes and the summary says "not analysed";
     #: true (or ``--require-fem``) makes that an error
     required: bool = False
+    #: keep CalculiX's result files (.frd for CalculiX GraphiX, .12d, .sta, .cvg) beside the
+    #: decks; by default only the decks (.inp), the printed results (.dat) and the logs stay,
+    #: since the .frd of the demo's four runs alone is 200 MB and every figure and check of the
+    #: report is read from it already (run ``ccx`` on a kept deck to get it again)
+    keep_results: bool = False
 
     def _check(self, w: _Written) -> None:
         for mode, key in (("points", "support_points"), ("ranges", "support_ranges")):
@@ -905,6 +910,9 @@ class OutputSection(_Section):
     #: output folder, relative to the job file (default: ``<input name>-fabpanel`` beside it)
     dir: str | None = None
     step: bool = True
+    #: one STEP per panel in model/panels/ besides model/assembly.step (which holds every
+    #: panel already, each a named assembly node)
+    step_per_panel: bool = False
     glb: bool = True
     #: model/design.3dm for Rhino and Grasshopper (panel surfaces, outlines, labels on layers)
     rhino: bool = True

@@ -389,11 +389,12 @@ def _write_outputs(
     if result.model is not None:
         from .model import write_glb, write_panel_steps, write_step_assembly
 
-        (folder / "model" / "panels").mkdir(parents=True)
         if job.output.step:
             write_step_assembly(
                 result.model, folder / "model" / "assembly.step", job.material.density
             )
+        if job.output.step and job.output.step_per_panel:
+            (folder / "model" / "panels").mkdir(parents=True)
             note(write_panel_steps(result.model, folder / "model" / "panels"), "model/panels")
         if job.output.glb:
             write_glb(result.model, folder / "model" / "preview.glb")

@@ -288,6 +288,24 @@ def test_step_assembly_round_trip(model, tmp_path):
     )
     glb = write_glb(model, tmp_path / "preview.glb")
     assert glb.read_bytes()[:4] == b"glTF"
+    import trimesh
+
+    scene = trimesh.load(glb)
+    # one named mesh per part, each under its panel's node
+    assert sorted(scene.geometry) == sorted(p.id for p in model.parts)
+    for part in model.parts:
+        assert scene.graph.transforms.parents[part.id] == part.panel_id
+    # metres, Y up: the model's z extent (mm) is the preview's y extent (m)
+    from fabpanel.model.occ import from_brep, shape_points
+
+    points = np.vstack([shape_points(from_brep(p.brep)) for p in model.parts])
+    low, high = points.min(0), points.max(0)
+    np.testing.assert_allclose(
+        scene.bounds[1, 1] - scene.bounds[0, 1], (high - low)[2] / 1000, rtol=0.02
+    )
+    np.testing.assert_allclose(
+        scene.bounds[1, 0] - scene.bounds[0, 0], (high - low)[0] / 1000, rtol=0.02
+    )
 
 
 def test_cladding_gives_top_sheets_only(developed, job):

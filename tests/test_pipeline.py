@@ -73,8 +73,9 @@ def test_output_contract(vault_run):
     assert gates["panels"] == GRID_U * GRID_V and gates["manifold"]
     assert 0 < gates["count_ratio"] and "edges_in_band" in gates and "corners_in_60_120" in gates
     assert len(manifest["parts"]) == 10 * GRID_U * GRID_V
+    # assembly.step holds every panel: a STEP per panel only when asked (step_per_panel)
+    assert not (out / "model" / "panels").exists()
     for panel in manifest["panels"]:
-        assert (out / "model" / "panels" / f"{panel['id']}.step").is_file()
         assert panel["class"] == "single-curved"
     marks = {m["mark"]: m for m in manifest["marks"]}
     assert sum(m["quantity"] for m in marks.values()) == len(manifest["parts"])

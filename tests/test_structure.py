@@ -497,3 +497,21 @@ def test_lowest_supports_are_the_boundary_sides_on_the_lowest_level():
     sides = np.array([[0, 0], [1, 2], [2, 1], [3, 3], [4, 0]])
     assert lowest_sides(Developed(), sides, 10.0).tolist() == [[0, 0], [1, 2], [4, 0]]
     assert lowest_sides(Developed(), sides[2:4], 10.0).tolist() == [[2, 1], [3, 3]]
+
+
+@needs_ccx
+def test_result_files_are_dropped_after_reading_unless_kept(vault_structure, tmp_path):
+    """The .frd, .12d, .sta and .cvg files are read and then removed (the demo's .frd are
+    200 MB); the decks, .dat and logs stay, and a file fabpanel did not write is left alone."""
+    _, _, folder = vault_structure
+    assert sorted(folder.glob("*.inp")) and sorted(folder.glob("*.dat"))
+    assert not [p for p in folder.iterdir() if p.suffix in (".frd", ".12d", ".sta", ".cvg")]
+    from fabpanel.structure.analysis import drop_results
+
+    mine = tmp_path / "static-1.frd"  # no deck beside it: not CalculiX's from this run
+    mine.write_text("the user's own")
+    (tmp_path / "static-2.inp").write_text("*HEADING")
+    (tmp_path / "static-2.frd").write_text("results")
+    drop_results(tmp_path, since=0.0)
+    assert mine.is_file() and not (tmp_path / "static-2.frd").exists()
+    assert (tmp_path / "static-2.inp").is_file()

@@ -264,7 +264,12 @@ def analyse(
                 return _analyse(model, job, Path(tmp), threads, executable, False, flat)
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
-        return _analyse(model, job, folder, threads, executable, True, flat)
+        since = time.time()
+        try:
+            return _analyse(model, job, folder, threads, executable, True, flat)
+        finally:
+            if not st.keep_results:
+                drop_results(folder, since)
     except FabpanelError as err:
         if st.required:
             raise
@@ -275,6 +280,20 @@ def analyse(
             Issue("structure-failed", "structure not analysed: " + str(err), severity="error"),
             ccx_found=True,
         )
+
+
+#: what CalculiX writes beside a deck that the report does not need once it is read
+RESULT_SUFFIXES = (".frd", ".12d", ".sta", ".cvg")
+
+
+def drop_results(folder: Path, since: float) -> None:
+    """Remove the result files CalculiX wrote in ``folder`` beside a deck since ``since``
+    (a ``time.time()``): nothing older, and nothing that is not beside a deck, is touched."""
+    stems = {deck.stem for deck in folder.glob("*.inp")}
+    for path in folder.iterdir():
+        ours = path.suffix in RESULT_SUFFIXES and path.stem in stems
+        if (ours or path.name == "spooles.out") and path.stat().st_mtime >= since - 1.0:
+            path.unlink()
 
 
 def _analyse(

@@ -300,9 +300,12 @@ def linear_deflection(shape) -> float:
     return float(np.clip(TESS_RELATIVE * bbox_diagonal(shape), TESS_MIN, TESS_MAX))
 
 
-def tessellate(shape, deflection: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def tessellate(
+    shape, deflection: float | None = None, angle: float = TESS_ANGLE
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Triangulate every face of ``shape`` and weld the faces along their seams.
 
+    ``deflection``: linear, mm (default :func:`linear_deflection`); ``angle``: angular, rad.
     Returns ``vertices (n, 3) float`` mm, ``triangles (m, 3) int`` wound like the faces'
     orientation in the shape (OCCT ``REVERSED`` faces flipped) and ``face_ids (m,) int``: the
     index in :func:`shape_faces` of the face each triangle comes from.
@@ -314,7 +317,7 @@ def tessellate(shape, deflection: float | None = None) -> tuple[np.ndarray, np.n
     from OCP.TopLoc import TopLoc_Location
 
     deflection = linear_deflection(shape) if deflection is None else deflection
-    mesher = BRepMesh_IncrementalMesh(shape, deflection, False, TESS_ANGLE, True)
+    mesher = BRepMesh_IncrementalMesh(shape, deflection, False, angle, True)
     if not mesher.IsDone():
         raise KernelError("OCCT could not tessellate the surface")
     points, triangles, face_ids, offset = [], [], [], 0
