@@ -79,6 +79,7 @@ def _write_step(
     from build123d.exporters3d import _create_xde
     from OCP.collections import Sequence_TDF_Label
     from OCP.IFSelect import IFSelect_ReturnStatus
+    from OCP.Interface import Interface_Static
     from OCP.Message import Message, Message_Gravity
     from OCP.STEPCAFControl import STEPCAFControl_Writer
     from OCP.STEPControl import STEPControl_StepModelType
@@ -128,7 +129,10 @@ def _write_step(
             ("mass_kg", part.mass),
         ):
             data.SetReal(TCollection_ExtendedString(key), float(number))
+    # no p-curves: a reader projects the 3D edges onto their faces (OCCT's does, tested), and
+    # the 2D curves of every edge on both its faces were a third of the file
     writer = STEPCAFControl_Writer(XSControl_WorkSession(), False)
+    Interface_Static.SetIVal_s("write.surfacecurve.mode", 0)  # after the writer's defaults
     for mode in (
         writer.SetColorMode,
         writer.SetNameMode,
