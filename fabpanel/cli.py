@@ -165,12 +165,15 @@ def export_run(
     require_fem: bool = False,
     allow_issues: bool = False,
     debug: bool = False,
+    run_settings: dict | None = None,
 ):
     """The ``export`` command: run, report, and exit 3 when error-level issues remain."""
     from .pipeline import run
 
     _quiet_logging(debug)
     job = _job_for(source, units, panel_size, quiet)
+    if run_settings:
+        job = job.replace(run=run_settings)
     if require_fem:
         job = job.replace(structure={"required": True})
     reporter = _Reporter(quiet)
@@ -254,6 +257,19 @@ _export_options = [
         default=None,
         help="Worker processes for per-panel work (default: all cores).",
     ),
+    click.option(
+        "--executor",
+        type=click.Choice(["local", "ray"]),
+        default=None,
+        help="Where per-panel work runs: worker processes here, or tasks on a Ray cluster "
+        "(default: the job's [run] executor, local).",
+    ),
+    click.option(
+        "--address",
+        default=None,
+        help='The Ray cluster to join ("auto", "ray://head:10001"); without it --executor '
+        "ray starts a local Ray instance.",
+    ),
     click.option("--force", is_flag=True, help="Replace an existing output folder."),
     click.option(
         "--require-fem",
@@ -282,9 +298,24 @@ def _with_export_options(func):
 @click.argument("source", type=click.Path(path_type=Path))
 @_with_export_options
 def export(
-    source, out, units, panel_size, until, jobs, force, require_fem, allow_issues, quiet, debug
+    source,
+    out,
+    units,
+    panel_size,
+    until,
+    jobs,
+    executor,
+    address,
+    force,
+    require_fem,
+    allow_issues,
+    quiet,
+    debug,
 ):
     """Run the pipeline on INPUT (a surface file) or JOB.toml and write the output folder."""
+    run_settings = {
+        key: value for key, value in (("executor", executor), ("address", address)) if value
+    }
     try:
         with _stop_on_signals():
             export_run(
@@ -299,6 +330,7 @@ def export(
                 require_fem,
                 allow_issues,
                 debug,
+                run_settings,
             )
     except (Exception, KeyboardInterrupt) as err:  # noqa: BLE001 - every error is an exit code
         _fail(err, debug)

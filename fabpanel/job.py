@@ -920,6 +920,23 @@ class OutputSection(_Section):
     report: bool = True
 
 
+class RunSection(_Section):
+    """[run]: where the per-panel work runs."""
+
+    _table = "run"
+
+    #: "local": worker processes on this machine (``--jobs``); "ray": tasks on a Ray cluster
+    #: (``pip install fabpanel[ray]``; every node needs fabpanel installed)
+    executor: Literal["local", "ray"] = "local"
+    #: the Ray cluster to join ("auto", "ray://head:10001" or "head:6379"); none starts a
+    #: local Ray instance with ``--jobs`` CPUs
+    address: str | None = None
+    #: a Ray worker process is replaced after this many tasks, so OCCT's memory stays bounded
+    worker_tasks: int = Field(default=50, ge=1, le=100000)
+    #: a task whose worker died (lost node, out of memory) is run again up to this many times
+    retries: int = Field(default=3, ge=0, le=100)
+
+
 class _JobModel(_Section):
     input: InputSection = InputSection()
     panelize: PanelizeSection = PanelizeSection()
@@ -930,6 +947,7 @@ class _JobModel(_Section):
     loads: LoadsSection = LoadsSection()
     structure: StructureSection = StructureSection()
     output: OutputSection = OutputSection()
+    run: RunSection = RunSection()
 
     def _check(self, w: _Written) -> None:
         sandwich, cutting = self.sandwich, self.cutting

@@ -10,19 +10,30 @@ group; the parent decides), die with SIGTERM, and the kernel kills them when the
 even by SIGKILL (Linux ``PR_SET_PDEATHSIG``), so no worker outlives a run. When the code inside
 ``with worker_pool(...)`` raises (an error, Ctrl-C, SIGTERM), queued tasks are cancelled and the
 running ones terminated at once instead of being waited for.
+
+On a Ray cluster (``[run] executor = "ray"``, :func:`executor`), the same pools hand each task
+to Ray instead: only the task's arguments and result cross (numpy arrays, BREP bytes, file
+contents; no file is written on a remote node), a worker process is replaced after
+``[run] worker_tasks`` tasks (OCCT does not give all its memory back), and a task whose worker
+died is run again up to ``[run] retries`` times. The result is the same as a local run's: the
+same functions on the same arguments, gathered in the same order.
 """
 
 from __future__ import annotations
 
+import contextvars
 import ctypes
+import logging
 import multiprocessing
 import os
 import signal
 import sys
 import warnings
-from collections.abc import Iterator
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Iterator
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
 
 from threadpoolctl import threadpool_limits
 
@@ -70,14 +81,108 @@ def terminate_pool(pool: ProcessPoolExecutor) -> None:
             process.join(_TERMINATE_WAIT)
 
 
+@dataclass(frozen=True)
+class RaySettings:
+    """How tasks go to Ray (from ``[run]``)."""
+
+    worker_tasks: int
+    retries: int
+
+
+_RAY: contextvars.ContextVar[RaySettings | None] = contextvars.ContextVar("ray", default=None)
+
+
 @contextmanager
-def worker_pool(workers: int, fresh: bool = False) -> Iterator[ProcessPoolExecutor]:
+def executor(kind: str, address: str | None, workers: int, worker_tasks: int, retries: int):
+    """Inside, :func:`worker_pool` gives Ray pools when ``kind`` is "ray": joins the cluster at
+    ``address``, or starts a local Ray instance of ``workers`` CPUs (shut down on leaving)."""
+    if kind != "ray":
+        yield
+        return
+    ray = import_ray()
+    started = not ray.is_initialized()
+    if started:
+        options: dict[str, Any] = {
+            "log_to_driver": False,
+            "include_dashboard": False,
+            "logging_level": logging.ERROR,  # its start-up notes are not the user's business
+        }
+        if address:
+            ray.init(address=address, **options)
+        else:
+            ray.init(num_cpus=workers, **options)
+    token = _RAY.set(RaySettings(worker_tasks, retries))
+    try:
+        yield
+    finally:
+        _RAY.reset(token)
+        if started:
+            ray.shutdown()
+
+
+def import_ray():
+    """The ``ray`` module, or an :class:`~fabpanel.errors.InputError` saying how to get it."""
+    try:
+        import ray
+    except ImportError:
+        from .errors import InputError
+
+        raise InputError(
+            '[run] executor = "ray" needs Ray; install it with pip install "fabpanel[ray]"'
+        ) from None
+    return ray
+
+
+def _ray_task(fn: Callable, args: tuple, kwargs: dict) -> Any:
+    """Run one task in a Ray worker, set up as a local worker is (once per process)."""
+    global _limits
+    if _limits is None:
+        warnings.simplefilter("ignore")
+        _limits = threadpool_limits(limits=1)
+    return fn(*args, **kwargs)
+
+
+class RayPool(Executor):
+    """A :class:`concurrent.futures.Executor` whose tasks run on Ray (see the module docstring)."""
+
+    def __init__(self, settings: RaySettings) -> None:
+        ray = import_ray()
+        self._remote = ray.remote(
+            num_cpus=1, max_calls=settings.worker_tasks, max_retries=settings.retries
+        )(_ray_task)
+        self._refs: list = []
+
+    def submit(self, fn: Callable, /, *args: Any, **kwargs: Any) -> Future:
+        ref = self._remote.remote(fn, args, kwargs)
+        self._refs.append(ref)
+        return ref.future()
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        if cancel_futures or not wait:
+            ray = import_ray()
+            for ref in self._refs:
+                ray.cancel(ref, force=True)
+        self._refs = []
+
+
+@contextmanager
+def worker_pool(workers: int, fresh: bool = False) -> Iterator[Executor]:
     """A process pool whose workers use one BLAS thread each and never outlive the run.
 
     fresh : start the workers from a fresh server process ("forkserver") instead of forking
         this one. Needed once this process has run spyrrow: its Rust thread pool does not
         survive a fork, and a forked worker packing with it waits forever.
     """
+    ray_settings = _RAY.get()
+    if ray_settings is not None:
+        ray_pool = RayPool(ray_settings)
+        try:
+            yield ray_pool
+        except BaseException:
+            ray_pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        ray_pool.shutdown()
+        return
     context = multiprocessing.get_context("forkserver") if fresh else None
     pool = ProcessPoolExecutor(
         max_workers=workers,
@@ -101,4 +206,9 @@ def child_preexec() -> None:
         libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
 
 
-__all__ = ["child_preexec", "terminate_pool", "worker_pool"]
+def ray_active() -> bool:
+    """Whether the pools of this run go to Ray."""
+    return _RAY.get() is not None
+
+
+__all__ = ["child_preexec", "executor", "ray_active", "terminate_pool", "worker_pool"]

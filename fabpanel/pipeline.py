@@ -14,6 +14,7 @@ import logging
 import os
 import platform
 import shutil
+import tempfile
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -28,6 +29,7 @@ from .errors import InputError, Issue
 from .job import STAGES, Job, Stage
 from .outdir import check_target, discard_staging, make_staging, move_into_place, sweep_stale
 from .panelize.estimate import check_panel_count
+from .parallel import executor
 
 if TYPE_CHECKING:
     from .structure import Structure
@@ -118,8 +120,17 @@ def run(
         raise InputError(f"unknown stage {until!r}; use one of {', '.join(STAGES)}")
     progress = progress or _Silent()
     target = Path(out_dir).resolve() if out_dir else job.output_dir
+    settings = job.run
+    on = executor(
+        settings.executor,
+        settings.address,
+        jobs or os.cpu_count() or 1,
+        settings.worker_tasks,
+        settings.retries,
+    )
     if not write:
-        return _run_stages(job, _checked_surface(job, progress), None, until, jobs, progress)
+        with on:
+            return _run_stages(job, _checked_surface(job, progress), None, until, jobs, progress)
     check_target(target, job_inputs(job), force)
     swept = sweep_stale(target)
     if swept:
@@ -127,7 +138,8 @@ def run(
     staging = make_staging(target)  # before any work: an unwritable target stops at once
     try:
         surface = _checked_surface(job, progress)
-        result = _run_stages(job, surface, staging, until, jobs, progress)
+        with on:
+            result = _run_stages(job, surface, staging, until, jobs, progress)
     except BaseException:
         discard_staging(staging)
         raise
@@ -316,16 +328,33 @@ def _run_stages(
     return result
 
 
-def _write_part_chunk(flat: FlatParts, folder: Path) -> dict:
+def _written(write, *args) -> tuple[dict, dict[str, bytes]]:
+    """``write(*args, folder)`` run into a scratch folder of the worker's own; its result and
+    the files it wrote, by name, so that no file is written on a remote node (Ray)."""
+    with tempfile.TemporaryDirectory(prefix="fabpanel-files-") as scratch:
+        result = write(*args, Path(scratch))
+        files = {path.name: path.read_bytes() for path in Path(scratch).iterdir()}
+    return result, files
+
+
+def _write_part_chunk(flat: FlatParts) -> tuple[dict, dict[str, bytes]]:
     from .flat.dxf import write_parts
 
-    return write_parts(flat, folder)
+    return _written(write_parts, flat)
 
 
-def _write_plate_chunk(nests: Nests, flat: FlatParts, folder: Path) -> dict:
+def _write_plate_chunk(nests: Nests, flat: FlatParts) -> tuple[dict, dict[str, bytes]]:
     from .flat.nest_output import write_nests
 
-    return write_nests(nests, flat, folder)
+    return _written(write_nests, nests, flat)
+
+
+def _saved(written: tuple[dict, dict[str, bytes]], folder: Path) -> dict:
+    """The files of one chunk (:func:`_written`) saved into ``folder``; the chunk's result."""
+    result, files = written
+    for name, data in files.items():
+        (folder / name).write_bytes(data)
+    return result
 
 
 def _write_cut_files(
@@ -345,18 +374,14 @@ def _write_cut_files(
     part_chunks = [FlatParts(parts=tuple(c)) for c in chunks(list(drawn.values()))]
     plate_chunks = [Nests(plates=tuple(c)) for c in chunks(list(nests.plates))]
     if workers == 1:
-        part_maps = [_write_part_chunk(c, folder / "parts") for c in part_chunks]
-        plate_maps = [_write_plate_chunk(c, flat, folder / "nests") for c in plate_chunks]
+        part_maps = [_saved(_write_part_chunk(c), folder / "parts") for c in part_chunks]
+        plate_maps = [_saved(_write_plate_chunk(c, flat), folder / "nests") for c in plate_chunks]
     else:
         with worker_pool(workers) as pool:
-            part_futures = [
-                pool.submit(_write_part_chunk, c, folder / "parts") for c in part_chunks
-            ]
-            plate_futures = [
-                pool.submit(_write_plate_chunk, c, flat, folder / "nests") for c in plate_chunks
-            ]
-            part_maps = [f.result() for f in part_futures]
-            plate_maps = [f.result() for f in plate_futures]
+            part_futures = [pool.submit(_write_part_chunk, c) for c in part_chunks]
+            plate_futures = [pool.submit(_write_plate_chunk, c, flat) for c in plate_chunks]
+            part_maps = [_saved(f.result(), folder / "parts") for f in part_futures]
+            plate_maps = [_saved(f.result(), folder / "nests") for f in plate_futures]
     drawn_files = {k: v for m in part_maps for k, v in m.items()}
     part_files = {p.id: drawn_files[drawn[p.mark or p.id].id] for p in flat.parts}
     plate_files = {k: v for m in plate_maps for k, v in m.items()}

@@ -41,7 +41,12 @@ FORBIDDEN = ("SPLINE", "ELLIPSE", "TEXT", "MTEXT")
 
 
 def new_document() -> ezdxf.document.Drawing:
-    """An empty R2010 drawing in millimetres with the cutting layers."""
+    """An empty R2010 drawing in millimetres with the cutting layers.
+
+    The same job writes the same file: ezdxf's fixed metadata stands in for the times and
+    GUIDs it would stamp on every save (the cut files of two runs, or of a local and a Ray
+    run, compare byte for byte)."""
+    ezdxf.options.write_fixed_meta_data_for_testing = True
     doc = ezdxf.new(DXF_VERSION, setup=False)
     doc.header["$INSUNITS"] = 4
     doc.header["$MEASUREMENT"] = 1
@@ -128,6 +133,11 @@ def save(doc, path: str | Path) -> Path:
         messages = "; ".join(str(e.message) for e in auditor.errors[:5])
         raise RuntimeError(f"DXF audit of {path} failed: {messages}")
     _set_extents(doc)
+    # ezdxf adds a CLASS per entity type in use on saving, in the order of a set of strings,
+    # which Python's hash seed changes from process to process: added here in name order
+    # first, they keep that order (the same job, the same file, whichever worker wrote it)
+    for dxftype in sorted(doc.entitydb.dxf_types_in_use()):
+        doc.classes.add_class(dxftype)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     doc.saveas(path)

@@ -145,6 +145,24 @@ def _write_step(
         raise KernelError(f"STEP transfer for {path.name} failed")
     if writer.Write(str(path)) != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise KernelError(f"STEP export to {path} failed")
+    _number_usages(path)
+
+
+def _number_usages(path: Path) -> None:
+    """Number the file's assembly usages 1, 2, ... in order: OCCT takes their ids from a
+    counter that runs on through the process, so the second file written by one process
+    differed from the first in nothing but these ids."""
+    import re
+
+    count = iter(range(1, 1 << 62))
+
+    def numbered(match: re.Match) -> bytes:
+        # on one line: the writer wraps at 80 characters, where depends on the old id's width
+        rest = re.sub(rb"\n\s*", b"", match.group(1))
+        return b"NEXT_ASSEMBLY_USAGE_OCCURRENCE('%d'%s;" % (next(count), rest)
+
+    data = re.sub(rb"NEXT_ASSEMBLY_USAGE_OCCURRENCE\('\d+'([^;]*);", numbered, path.read_bytes())
+    path.write_bytes(data)
 
 
 def write_panel_steps(model: Model, folder: str | Path) -> dict[str, str]:
