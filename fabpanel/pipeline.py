@@ -422,7 +422,7 @@ def _write_outputs(
             (folder / "model" / "panels").mkdir(parents=True)
             note(write_panel_steps(result.model, folder / "model" / "panels"), "model/panels")
         if job.output.glb:
-            write_glb(result.model, folder / "model" / "preview.glb")
+            write_glb(result.model, folder / "model" / "preview.glb", workers)
         if job.output.rhino:
             from .model.rhino import write_3dm
 

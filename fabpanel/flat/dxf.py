@@ -126,13 +126,15 @@ def add_contour(msp, points: np.ndarray, layer: str, transform: np.ndarray | Non
     msp.add_lwpolyline(rows.tolist(), format="xyb", close=True, dxfattribs={"layer": layer})
 
 
-def save(doc, path: str | Path) -> Path:
-    """Audit and save a drawing; raise if the auditor finds errors it could not fix."""
+def save(doc, path: str | Path, extents: tuple[tuple, tuple] | None = None) -> Path:
+    """Audit and save a drawing; raise if the auditor finds errors it could not fix.
+    ``extents``: the drawing's (low, high) corners where they are known (a plate: its
+    outline holds every part), else measured from the entities."""
     auditor = doc.audit()
     if auditor.has_errors:
         messages = "; ".join(str(e.message) for e in auditor.errors[:5])
         raise RuntimeError(f"DXF audit of {path} failed: {messages}")
-    _set_extents(doc)
+    _set_extents(doc, extents)
     # ezdxf adds a CLASS per entity type in use on saving, in the order of a set of strings,
     # which Python's hash seed changes from process to process: added here in name order
     # first, they keep that order (the same job, the same file, whichever worker wrote it)
@@ -144,12 +146,17 @@ def save(doc, path: str | Path) -> Path:
     return path
 
 
-def _set_extents(doc) -> None:
-    """$EXTMIN/$EXTMAX from the drawing's entities: a viewer or CAM program that trusts the
-    header (rather than scanning the file) zooms to the parts."""
+def _set_extents(doc, extents: tuple[tuple, tuple] | None = None) -> None:
+    """$EXTMIN/$EXTMAX from the drawing's entities (or the ``extents`` given): a viewer or CAM
+    program that trusts the header (rather than scanning the file) zooms to the parts."""
     from ezdxf import bbox
 
     msp = doc.modelspace()
+    if extents is not None:
+        low, high = (*map(float, extents[0][:2]), 0.0), (*map(float, extents[1][:2]), 0.0)
+        msp.dxf.extmin, msp.dxf.extmax = low, high
+        doc.header["$EXTMIN"], doc.header["$EXTMAX"] = low, high
+        return
     box = bbox.extents(msp, fast=True)
     if box.has_data:
         low, high = (box.extmin.x, box.extmin.y, 0.0), (box.extmax.x, box.extmax.y, 0.0)

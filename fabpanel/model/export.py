@@ -187,18 +187,18 @@ GLB_DEFLECTION = (0.2, 5.0)
 GLB_ANGLE = 0.35
 
 
-def write_glb(model: Model, path: str | Path) -> Path:
+def write_glb(model: Model, path: str | Path, workers: int = 1) -> Path:
     """A binary glTF preview: one named mesh per part (its part id), a node per panel holding
     its parts, coloured by kind; in metres with Y up, as glTF defines (the parts are mm, Z up).
-    Each part is tessellated with a deflection tied to its size (``GLB_RELATIVE``)."""
+    Each part is tessellated with a deflection tied to its size (``GLB_RELATIVE``), in
+    ``workers`` worker processes."""
     import trimesh
-
-    from ..surface.brep import bbox_diagonal, tessellate
 
     path = Path(path)
     origin = np.asarray(model.developed.layout.origin, dtype=float)
     # mm, Z up -> m, Y up: (x, y, z) -> (x, z, -y)
     to_gltf = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]) / 1000.0
+    meshes = dict(zip((p.id for p in model.parts), _part_meshes(list(model.parts), workers)))
     scene = trimesh.Scene()
     by_panel: dict[str, list[Part]] = {}
     for part in model.parts:
@@ -208,10 +208,7 @@ def write_glb(model: Model, path: str | Path) -> Path:
             continue
         scene.graph.update(frame_to=panel_id, frame_from=scene.graph.base_frame)
         for part in by_panel[panel_id]:
-            shape = occ.from_brep(part.brep, part.id)
-            low, high = GLB_DEFLECTION
-            deflection = float(np.clip(GLB_RELATIVE * bbox_diagonal(shape), low, high))
-            vertices, triangles, _ = tessellate(shape, deflection, GLB_ANGLE)
+            vertices, triangles = meshes[part.id]
             colour = (*KIND_COLOURS.get(part.kind, (0.5, 0.5, 0.5)), 1.0)
             mesh = trimesh.Trimesh(
                 (vertices + origin) @ to_gltf.T,
@@ -231,6 +228,31 @@ def write_glb(model: Model, path: str | Path) -> Path:
         raise KernelError(f"glTF export to {path} failed")
     path.write_bytes(data)
     return path
+
+
+def _part_meshes(parts: list[Part], workers: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Every part's preview tessellation (vertices mm, triangles), in worker processes."""
+    if workers <= 1 or len(parts) < 16:
+        return _tessellated(parts)
+    from ..parallel import worker_pool
+
+    size = -(-len(parts) // (4 * workers))
+    chunks = [parts[i : i + size] for i in range(0, len(parts), size)]
+    with worker_pool(workers) as pool:
+        return [mesh for chunk in pool.map(_tessellated, chunks) for mesh in chunk]
+
+
+def _tessellated(parts: list[Part]) -> list[tuple[np.ndarray, np.ndarray]]:
+    from ..surface.brep import bbox_diagonal, tessellate
+
+    meshes = []
+    for part in parts:
+        shape = occ.from_brep(part.brep, part.id)
+        low, high = GLB_DEFLECTION
+        deflection = float(np.clip(GLB_RELATIVE * bbox_diagonal(shape), low, high))
+        vertices, triangles, _ = tessellate(shape, deflection, GLB_ANGLE)
+        meshes.append((vertices, triangles))
+    return meshes
 
 
 def read_step_parts(path: str | Path) -> dict[str, object]:
