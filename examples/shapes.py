@@ -429,16 +429,20 @@ def patch_mesh(nx: int = 50, ny: int = 40) -> tuple[np.ndarray, np.ndarray]:
     a, b = PATCH_HALF
     X, Y = np.meshgrid(np.linspace(-a, a, nx + 1), np.linspace(-b, b, ny + 1), indexing="ij")
     vertices = np.stack([X, Y, patch_height(X, Y)], axis=-1).reshape(-1, 3)
+    return vertices, grid_triangles(nx, ny)
+
+
+def grid_triangles(nx: int, ny: int) -> np.ndarray:
+    """Triangles (2 nx ny, 3) of an (nx + 1) x (ny + 1) point grid numbered along y first
+    (``meshgrid(..., indexing="ij")``), counter-clockwise seen from above."""
     i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
     v00 = (i * (ny + 1) + j).ravel()
-    # x then y: counter-clockwise seen from above
-    triangles = np.vstack(
+    return np.vstack(
         [
             np.stack([v00, v00 + ny + 1, v00 + ny + 2], axis=1),
             np.stack([v00, v00 + ny + 2, v00 + 1], axis=1),
         ]
     )
-    return vertices, triangles
 
 
 def write_patch_obj(path: str | Path, nx: int = 50, ny: int = 40) -> Path:
