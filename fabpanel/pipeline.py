@@ -377,7 +377,7 @@ def _write_cut_files(
         part_maps = [_saved(_write_part_chunk(c), folder / "parts") for c in part_chunks]
         plate_maps = [_saved(_write_plate_chunk(c, flat), folder / "nests") for c in plate_chunks]
     else:
-        with worker_pool(workers) as pool:
+        with worker_pool(workers, fresh=True) as pool:  # this process has run spyrrow's nests
             part_futures = [pool.submit(_write_part_chunk, c) for c in part_chunks]
             plate_futures = [pool.submit(_write_plate_chunk, c, flat) for c in plate_chunks]
             part_maps = [_saved(f.result(), folder / "parts") for f in part_futures]

@@ -238,7 +238,9 @@ def _part_meshes(parts: list[Part], workers: int) -> list[tuple[np.ndarray, np.n
 
     size = -(-len(parts) // (4 * workers))
     chunks = [parts[i : i + size] for i in range(0, len(parts), size)]
-    with worker_pool(workers) as pool:
+    # fresh workers: this process may have run threads (spyrrow's nests, OCCT) whose locks a
+    # forked worker would inherit held, and then wait on forever (seen in the demo)
+    with worker_pool(workers, fresh=True) as pool:
         return [mesh for chunk in pool.map(_tessellated, chunks) for mesh in chunk]
 
 
