@@ -187,3 +187,31 @@ def test_a_mark_is_nested_as_one_item_with_its_quantity_and_every_copy_placed(mo
     assert validate_nests(nests, flat, JOB) == []
     placed = sorted(pl.part_id for plate in nests.plates for pl in plate.placements)
     assert placed == sorted(p.id for p in parts)
+
+
+def test_the_signature_filter_groups_exactly_as_matching_every_pair_would():
+    """Copies jittered by up to 0.04 mm at every vertex share a mark; copies with one vertex
+    moved 0.3 mm, or reshaped, do not: the same groups as comparing each part with every
+    group's first part vertex by vertex (the filter only skips pairs that cannot match)."""
+    rng = np.random.default_rng(7)
+    parts = []
+    for i in range(30):
+        kind = i % 3
+        part = gusset(f"P{i:03d}-STF-1", float(rng.uniform(0, 360)), rng.uniform(-5e3, 5e3, 2))
+        outline = part.outline + rng.uniform(-0.028, 0.028, part.outline.shape)
+        if kind == 1:
+            outline[int(rng.integers(len(outline)))] += [0.3, 0.0]
+        elif kind == 2:
+            outline[2] += [5.0 * (1 + i % 4), 0.0]
+        parts.append(dataclasses.replace(part, outline=outline))
+    groups = mark_groups(parts)
+    brute: list[list[int]] = []
+    for index, part in enumerate(parts):
+        for members in brute:
+            if rigid_match(parts[members[0]], part) is not None:
+                members.append(index)
+                break
+        else:
+            brute.append([index])
+    assert [g.part_ids for g in groups] == [tuple(parts[i].id for i in m) for m in brute]
+    assert groups[0].quantity == 10  # the ten jittered copies
