@@ -43,7 +43,7 @@ from shapely.geometry import Polygon, box
 
 from ..data import FlatPart, FlatParts, Nests, Placement, Plate
 from ..errors import Issue
-from ..geom.polygon import polygon_area, polyline_length
+from ..geom.polygon import polyline_length
 from ..job import Job, StockSection
 from .flatbar import bar_metrics
 from .marks import TOLERANCE as MARK_TOLERANCE
@@ -98,7 +98,7 @@ def nest_group(
     # a part that fits one way only cannot be turned by rectpack: its turned box does not fit
     turns = {r % 180 for r in cutting.rotations} == {0, 90}
     boxes = box_plates(items, length, height, turns)
-    estimate = sum(abs(polygon_area(it.shape)) for it in items) / (FILL_DENSITY * length * height)
+    estimate = sum(it.area for it in items) / (FILL_DENSITY * length * height)
     # the budget in whole seconds per plate (spyrrow's unit), at least 1 s while any is left
     share = max(math.ceil(budget_s / max(math.ceil(estimate), 1)), 1)
     deadline = time.perf_counter() + budget_s
@@ -114,7 +114,7 @@ def nest_group(
         )
         waiting = sorted(
             (it for later in boxes[index + 1 :] for it in later.items if id(it) not in placed),
-            key=lambda it: abs(polygon_area(it.shape)),
+            key=lambda it: it.area,
         )
         if len(plate.items) == len(members) and waiting:
             left = round_seconds(deadline - time.perf_counter())

@@ -49,6 +49,11 @@ class Item:
     rotations: tuple[int, ...]
     key: str = ""
     to_shape: np.ndarray = field(default_factory=lambda: np.eye(3))
+    #: the grown shape's area, mm2 (the fills sort the waiting parts by it, plate after plate)
+    area: float = field(init=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "area", abs(polygon_area(self.shape)))
 
 
 def rotation_matrix(degrees: float) -> np.ndarray:
@@ -255,6 +260,10 @@ def box_plates(items: list[Item], length: float, height: float, rotate: bool) ->
     return plates
 
 
+def _area(item: Item) -> float:
+    return item.area
+
+
 def fill_plate(
     plate: Packing, waiting: list[Item], length: float, height: float, seconds: int, seed: int
 ) -> Packing:
@@ -264,13 +273,9 @@ def fill_plate(
     constructive packs, bounded by the free area); with a time budget, one more part is tried
     with spyrrow's improvement phase.
     """
-
-    def area(item: Item) -> float:
-        return abs(polygon_area(item.shape))
-
-    free = length * height - sum(area(it) for it in plate.items)
-    extras = sorted(waiting, key=area)
-    areas = np.array([area(it) for it in extras])
+    free = length * height - sum(it.area for it in plate.items)
+    extras = sorted(waiting, key=_area)
+    areas = np.array([it.area for it in extras])
     low, high = 0, int(np.searchsorted(np.cumsum(areas), free, side="right"))
     best = plate
     for _ in range(FILL_PROBES):
@@ -350,22 +355,18 @@ def tail_fill(
     moved behind the large ones (packed the shorter way: :func:`shortest_pack`). Kept when it
     holds more part area than ``plate``.
     """
-
-    def area(item: Item) -> float:
-        return abs(polygon_area(item.shape))
-
-    largest = max(area(it) for it in plate.items)
-    large = [it for it in plate.items if area(it) >= SMALL_SHARE * largest]
-    small = [it for it in plate.items if area(it) < SMALL_SHARE * largest]
+    largest = max(it.area for it in plate.items)
+    large = [it for it in plate.items if it.area >= SMALL_SHARE * largest]
+    small = [it for it in plate.items if it.area < SMALL_SHARE * largest]
     base = shortest_pack(large, length, height, seed, rotate) if small or waiting else None
     if base is None:
         return plate
     used = float(x_spans(base.items, base.transforms)[:, 1].max())
-    extras = small + sorted((it for it in waiting if area(it) < SMALL_SHARE * largest), key=area)
+    extras = small + sorted((it for it in waiting if it.area < SMALL_SHARE * largest), key=_area)
     room = length - used
     if room <= 0 or not extras:
         return plate
-    areas = np.cumsum([area(it) for it in extras])
+    areas = np.cumsum([it.area for it in extras])
     low, high = len(small), int(np.searchsorted(areas, room * height, side="right"))
     tail = shortest_pack(extras[:low], room, height, seed, rotate) if low else Packing([], [])
     for _ in range(FILL_PROBES):
@@ -384,6 +385,6 @@ def tail_fill(
     filled = Packing(
         base.items + tail.items, base.transforms + [shift @ t for t in tail.transforms]
     )
-    if sum(area(it) for it in filled.items) <= sum(area(it) for it in plate.items):
+    if sum(it.area for it in filled.items) <= sum(it.area for it in plate.items):
         return plate
     return filled
