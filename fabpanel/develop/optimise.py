@@ -149,8 +149,11 @@ class _System:
     """Residual blocks and their sparse Jacobian, assembled from vectorised pieces; with
     ``jacobian=False`` the residuals only (the energy of a trial step needs no more)."""
 
-    def __init__(self, jacobian: bool = True):
-        self.residuals, self.rows, self.cols, self.vals = [], [], [], []
+    def __init__(self, jacobian: bool = True) -> None:
+        self.residuals: list[np.ndarray] = []
+        self.rows: list[np.ndarray] = []
+        self.cols: list[np.ndarray] = []
+        self.vals: list[np.ndarray] = []
         self.count = 0
         self.jacobian = jacobian
 
