@@ -188,7 +188,7 @@ def test_global_makes_a_hypar_developable_closer_than_the_loft(tmp_path):
     assert optimised.metrics["rib_plane_residual_mm_max_interior"] < 0.5  # the target
 
 
-def test_the_solver_stops_once_two_steps_move_no_sample_further_than_the_step_tolerance(tmp_path):
+def test_the_solver_stops_in_the_tail_once_two_steps_move_no_sample_further_than_asked(tmp_path):
     surface = _cap(tmp_path, n=8)
     query = SurfaceQuery(surface)
     layout = panelize(surface, Job.from_dict({"panelize": {"grid_u": 2, "grid_v": 2}}), query)
@@ -201,7 +201,8 @@ def test_the_solver_stops_once_two_steps_move_no_sample_further_than_the_step_to
         return solver.solve(40, 1e-12, step_tolerance)
 
     loose, strict = solved(1e4), solved(1e-9)
-    # every step moves less than 10 m: the first two iterations end it
-    assert loose["stopped_by"] == "step" and loose["iterations"] == 2 and loose["converged"]
-    assert strict["stopped_by"] != "step" and strict["iterations"] > 2
+    # every step moves less than 10 m: the first two iterations that lower the energy by less
+    # than 1 % end it, long before the energy stops falling
+    assert loose["stopped_by"] == "step" and loose["converged"]
+    assert strict["stopped_by"] != "step" and strict["iterations"] > loose["iterations"] + 2
     assert strict["energy_end"] <= loose["energy_end"]
