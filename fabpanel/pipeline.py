@@ -266,7 +266,7 @@ def _run_stages(
             if job.cutting.suggest_stock:
                 from .flat.stock import suggest_stock
 
-                suggestion = suggest_stock(flat, job, jobs)
+                suggestion = suggest_stock(flat, job, jobs, nests)
                 nests = dataclasses.replace(
                     nests, metrics={**nests.metrics, "stock_suggestion": suggestion}
                 )

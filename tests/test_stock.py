@@ -133,3 +133,26 @@ def test_a_length_cut_from_coil_is_suggested_where_no_format_fits_well():
     thick = tuple(flat_part(f"P{i:03d}-TOP", rectangle(2700.0, 1100.0), 25.0) for i in range(4))
     (plate,) = suggest_stock(FlatParts(parts=thick), job(), jobs=1)
     assert not plate["from_coil"]
+
+
+def test_the_jobs_own_nest_stands_in_for_its_candidate_only_where_it_is_the_same_nest(
+    monkeypatch,
+):
+    """With one unlimited stock size and no time budget, the job's nest is the candidate's
+    nest: it is not run again, and the suggestion is the same as without it."""
+    import fabpanel.flat.stock as stock_module
+
+    flat, j = sheets(), job()
+    plain = suggest_stock(flat, j, jobs=1)
+    asked = []
+    real = stock_module._plates_on
+    monkeypatch.setattr(
+        stock_module, "_plates_on", lambda items, jb, s: asked.append(s) or real(items, jb, s)
+    )
+    assert suggest_stock(flat, j, jobs=1, nests=nest(flat, j)) == plain
+    assert (3000.0, 1500.0) not in {(s.length, s.width) for s in asked}
+    # a time budget makes the job's nest another computation: every candidate runs
+    asked.clear()
+    timed = job(nest_time="1 s")
+    suggest_stock(flat, timed, jobs=1, nests=nest(flat, j))
+    assert (3000.0, 1500.0) in {(s.length, s.width) for s in asked}

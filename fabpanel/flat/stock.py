@@ -17,7 +17,7 @@ import os
 
 import numpy as np
 
-from ..data import FlatParts
+from ..data import FlatParts, Nests
 from ..job import Job, StockSection
 from ..parallel import worker_pool
 from .nest import nest_group, nest_groups, on_stock, packing_grow, usable
@@ -108,17 +108,43 @@ def _plates_on(items: list[Item], job: Job, stock: StockSection) -> int:
     return len(plates)
 
 
-def suggest_stock(flat: FlatParts, job: Job, jobs: int | None = None) -> list[dict]:
+def _nested_already(nests: Nests | None, job: Job) -> dict[tuple, int]:
+    """Plates of the job's own nest per (material, thickness, length, width), where that nest
+    is the one a candidate would get: one stock size without a count limit and no time budget
+    (spyrrow's constructive pack is then the same computation, bit for bit)."""
+    if nests is None or job.cutting.nest_time > 0:
+        return {}
+    known = {}
+    for group in nests.metrics.get("groups", []):
+        stocks = job.cutting.stock_for(group["thickness_mm"])
+        if len(stocks) == 1 and stocks[0].count is None:
+            size = (stocks[0].length, stocks[0].width)
+            known[(group["material"], group["thickness_mm"], *size)] = group["plates"]
+    return known
+
+
+def _in(candidate: tuple[tuple[str, float], StockSection], known: dict[tuple, int]) -> bool:
+    (material, thickness), stock = candidate
+    return (material, thickness, stock.length, stock.width) in known
+
+
+def suggest_stock(
+    flat: FlatParts, job: Job, jobs: int | None = None, nests: Nests | None = None
+) -> list[dict]:
     """Per (material, thickness): the suggested stock size, its plates, steel bought and net
     (kg), their ratio, the scrap and whether it is cut from coil, JSON-ready. Groups no
     candidate holds are left out. The candidates' nests run in ``jobs`` worker processes
-    (default: all cores; 1 inline)."""
+    (default: all cores; 1 inline); the job's own ``nests``, when given, stand in for the
+    candidate they equal."""
     groups, _ = nest_groups(flat, job)
-    tasks = [
+    known = _nested_already(nests, job)
+    candidates = [
         (key, stock)
         for key, items in sorted(groups.items())
         for stock in _candidates(items, job, key[1])
     ]
+    done = [(c, known[(*c[0], c[1].length, c[1].width)]) for c in candidates if _in(c, known)]
+    tasks = [c for c in candidates if not _in(c, known)]
     workers = min(jobs or os.cpu_count() or 1, len(tasks))
     if workers > 1:
         with worker_pool(workers, fresh=True) as pool:  # this process has run spyrrow
@@ -132,6 +158,8 @@ def suggest_stock(flat: FlatParts, job: Job, jobs: int | None = None) -> list[di
             )
     else:
         counts = [_plates_on(groups[key], job, stock) for key, stock in tasks]
+    tasks += [c for c, _ in done]
+    counts += [count for _, count in done]
     best: dict[tuple[str, float], tuple[float, int, StockSection]] = {}
     for (key, stock), count in zip(tasks, counts):
         bought = _bought(count, stock, key[1] * float(job.material.density))
