@@ -312,9 +312,9 @@ class DevelopSection(_Section):
     max_iterations: int = Field(default=60, ge=1, le=10000)
     #: global: stop when an iteration lowers the energy by less than this (relative)
     tolerance: float = Field(default=1e-6, gt=0, lt=1)
-    #: global: ... or when two iterations in a row move no sample further than this: the
-    #: optimum's long tail trades hundredths of a millimetre of deviation for strain far below
-    #: ``strain_tolerance``, which no shop can see
+    #: global: ... or when two undamped iterations in a row move no sample further than this
+    #: and lower the energy by less than 1 %: the optimum's long tail trades hundredths of a
+    #: millimetre of deviation for strain far below ``strain_tolerance``, which no shop can see
     step_tolerance: PositiveLength = _default("0.01 mm")
 
 

@@ -123,9 +123,10 @@ def _nested_already(nests: Nests | None, job: Job) -> dict[tuple, int]:
     return known
 
 
-def _in(candidate: tuple[tuple[str, float], StockSection], known: dict[tuple, int]) -> bool:
+def _size_key(candidate: tuple[tuple[str, float], StockSection]) -> tuple:
+    """(material, thickness, length, width) of a (group, stock) candidate."""
     (material, thickness), stock = candidate
-    return (material, thickness, stock.length, stock.width) in known
+    return (material, thickness, stock.length, stock.width)
 
 
 def suggest_stock(
@@ -143,8 +144,8 @@ def suggest_stock(
         for key, items in sorted(groups.items())
         for stock in _candidates(items, job, key[1])
     ]
-    done = [(c, known[(*c[0], c[1].length, c[1].width)]) for c in candidates if _in(c, known)]
-    tasks = [c for c in candidates if not _in(c, known)]
+    tasks = [c for c in candidates if _size_key(c) not in known]
+    done = [c for c in candidates if _size_key(c) in known]
     workers = min(jobs or os.cpu_count() or 1, len(tasks))
     if workers > 1:
         with worker_pool(workers, fresh=True) as pool:  # this process has run spyrrow
@@ -158,8 +159,8 @@ def suggest_stock(
             )
     else:
         counts = [_plates_on(groups[key], job, stock) for key, stock in tasks]
-    tasks += [c for c, _ in done]
-    counts += [count for _, count in done]
+    tasks += done
+    counts += [known[_size_key(c)] for c in done]
     best: dict[tuple[str, float], tuple[float, int, StockSection]] = {}
     for (key, stock), count in zip(tasks, counts):
         bought = _bought(count, stock, key[1] * float(job.material.density))
