@@ -369,3 +369,21 @@ def test_bend_lines_are_etched_as_ticks_at_the_edges_by_default(marks):
         assert np.linalg.norm(tick[1] - tick[0]) == pytest.approx(BEND_TICK)
         assert Polygon(top.outline).buffer(1e-6).contains(LineString(tick))
     assert sum(np.linalg.norm(t[1] - t[0]) for t in etched) < 0.2 * full
+
+
+def test_a_sheet_whose_flat_outline_crosses_itself_is_an_error_issue_not_a_crash():
+    """A folded sample grid (its last two rows reversed) unrolls to an outline that crosses
+    itself: the cut reports it as ``invalid-outline`` and goes on, with no bend lines for it
+    (the bend-line search needs a valid polygon; shapely raised on it and stopped the run)."""
+    t = np.linspace(0, 0.3, 9)
+    x = np.linspace(0, 1000, 9)
+    tt, xx = np.meshgrid(t, x, indexing="ij")
+    grid = np.stack([xx, 4000 * np.sin(tt), 4000 * np.cos(tt)], -1)
+    grid[-2:] = grid[-2:, ::-1]
+    model = Model(parts=(sheet(grid), rib()), developed=None)  # type: ignore[arg-type]
+    flat = cut(model, Job.from_dict({}), jobs=1)
+    folded = next(p for p in flat.parts if p.kind == "sheet-top")
+    assert not Polygon(folded.outline).is_valid and len(folded.bend_lines) == 0
+    assert [(i.code, i.severity, i.item) for i in flat.issues if i.code == "invalid-outline"] == [
+        ("invalid-outline", "error", "P001-TOP")
+    ]

@@ -190,8 +190,9 @@ def unroll_sheet(part: Part) -> FlatPart:
         # classified as seen from outside, so "OUT CONVEX" names the outer face either way
         seen = bending_of(grid, seen_from_outside, grid_outline(seen_from_outside))
         bending = dataclasses.replace(seen, lines=seen.lines * mirror)
-    except (QhullError, ValueError, np.linalg.LinAlgError) as err:
-        # a degenerate (sliver) sheet: no bend lines rather than no cutting files
+    except (QhullError, ValueError, np.linalg.LinAlgError, shapely.errors.GEOSException) as err:
+        # a degenerate (sliver) sheet, or a flat outline that crosses itself (``cut`` reports
+        # it as ``invalid-outline``): no bend lines rather than no cutting files
         log.warning("%s: no bend lines (%s)", part.id, err)
         bending = Bending("unknown", np.zeros((0, 2, 2)), np.zeros((0, 2)), False)
     holes = tuple(
