@@ -1,4 +1,4 @@
-"""Command line: ``fabpanel export | init | inspect | demo``.
+"""Command line: ``fabpanel export | init | inspect | docs | demo``.
 
 Exit codes: 0 success, 2 bad input or job (one line on stderr: what, where, how to fix),
 1 internal error. ``--debug`` shows tracebacks.
@@ -391,6 +391,27 @@ def inspect(source, units, as_json, debug):
             for key, value in info.items():
                 click.echo(f"{key:>22}: {value}")
     except Exception as err:  # noqa: BLE001
+        _fail(err, debug)
+
+
+@main.command()
+@click.argument("folder", type=click.Path(path_type=Path))
+@click.option("--jobs", type=click.IntRange(min=1), default=None)
+@click.option("--debug", is_flag=True, help="Show tracebacks.")
+def docs(folder, jobs, debug):
+    """Make the shop documents again from the output FOLDER of a run: docs/*.csv (panels,
+    rolling, fasteners, welds), docs/keyplan.pdf and model/assembly.ifc."""
+    try:
+        import os
+
+        from .docs import docs_from_folder
+
+        _quiet_logging(debug)
+        with _stop_on_signals():
+            written = docs_from_folder(folder, jobs or os.cpu_count() or 1)
+        for path in written:
+            click.echo(f"wrote {path}", err=True)
+    except (Exception, KeyboardInterrupt) as err:  # noqa: BLE001
         _fail(err, debug)
 
 

@@ -290,6 +290,9 @@ class Part:
         which index ``surface_grid`` uniformly; the cutting stage unrolls them with the sheet.
     opening_area : float
         sheets: the openings' area, mm2 (taken off ``area`` already).
+    centroid : (3,) float or None
+        the solid's centre of volume, mm, world frame (None where the builder did not measure
+        it).
     """
 
     id: str
@@ -308,9 +311,22 @@ class Part:
     openings: tuple[np.ndarray, ...] = field(default=(), repr=False)
     opening_area: float = 0.0
     files: tuple[str, ...] = ()
+    centroid: np.ndarray | None = field(default=None, repr=False)
+
+    def bolt_hole_axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The bolt holes of a plate in the world frame: centres at mid-thickness (n, 3), unit
+        axes (n, 3) along the frame's z, diameters (n,), mm (empty for a part without a frame)."""
+        bolts = [h for h in self.holes if h.purpose == "bolt"]
+        if self.frame is None or not bolts:
+            return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)
+        frame = np.asarray(self.frame, dtype=float)
+        flat = np.array([(*h.centre, self.thickness / 2.0, 1.0) for h in bolts])
+        axis = frame[:3, 2] / np.linalg.norm(frame[:3, 2])
+        centres = (flat @ frame.T)[:, :3]
+        return centres, np.tile(axis, (len(bolts), 1)), np.array([h.diameter for h in bolts])
 
     def to_dict(self) -> dict:
-        return {
+        record = {
             "id": self.id,
             "kind": self.kind,
             "panel": self.panel_id,
@@ -323,6 +339,15 @@ class Part:
             "openings": len(self.openings),
             "files": list(self.files),
         }
+        if self.centroid is not None:
+            record["centroid_mm"] = _round(self.centroid, 3)
+        centres, axes, diameters = self.bolt_hole_axes()
+        if len(diameters):
+            record["bolt_holes"] = [
+                {"centre_mm": _round(c, 3), "axis": _round(a, 6), "diameter_mm": float(d)}
+                for c, a, d in zip(centres, axes, diameters)
+            ]
+        return record
 
 
 @dataclass(frozen=True)
@@ -388,6 +413,9 @@ class FlatPart:
     bend_radius : float
         single-curved sheets: the smallest bending radius at the unrolling fibre, mm (0: flat,
         double curved or unknown).
+    bend_radius_max : float
+        the largest bending radius along the bend lines, mm (a cone's wide end; equal to
+        ``bend_radius`` on a cylinder, 0 where that is 0).
     spring_stress : float
         a sheet sprung elastically onto its ribs (forming ``... SPRING``): the bending stress
         that stays locked in, E t / (2 R), MPa; 0 when rolled or flat (:mod:`fabpanel.forming`).
@@ -416,6 +444,7 @@ class FlatPart:
     bend_radius: float = 0.0
     spring_stress: float = 0.0
     files: tuple[str, ...] = ()
+    bend_radius_max: float = 0.0
 
     @property
     def area(self) -> float:
@@ -426,6 +455,19 @@ class FlatPart:
         return float(
             net - sum(np.pi * h.diameter**2 / 4 for h in self.round_holes + self.drill_holes)
         )
+
+    @property
+    def roll_axis_deg(self) -> float:
+        """Direction of the bend lines (the roll's axis) in the flat frame, degrees from +x in
+        [0, 180) (their length-weighted mean direction; 0 without bend lines)."""
+        if not len(self.bend_lines):
+            return 0.0
+        d = self.bend_lines[:, 1] - self.bend_lines[:, 0]
+        # doubled angles average undirected lines
+        doubled = np.arctan2(d[:, 1], d[:, 0]) * 2.0
+        weight = np.linalg.norm(d, axis=1)
+        mean = np.arctan2((weight * np.sin(doubled)).sum(), (weight * np.cos(doubled)).sum())
+        return float(np.degrees(mean / 2.0) % 180.0)
 
     def to_dict(self) -> dict:
         record = {
@@ -444,6 +486,21 @@ class FlatPart:
             record["stock_form"] = self.stock_form
         if self.spring_stress:
             record["spring_stress_MPa"] = round(self.spring_stress, 1)
+        if self.bend_radius > 0:
+            record["bend_radius_mm"] = [
+                round(self.bend_radius, 1),
+                round(max(self.bend_radius_max, self.bend_radius), 1),
+            ]
+        if len(self.bend_lines):
+            angle = np.radians(self.roll_axis_deg)
+            along = np.array([np.cos(angle), np.sin(angle)])
+            record["roll_axis_deg"] = round(self.roll_axis_deg, 2)
+            # the flat sheet's extent along the roll's axis and across it (the rolled width)
+            record["roll_extent_mm"] = [
+                round(float(np.ptp(self.outline @ along)), 1),
+                round(float(np.ptp(self.outline @ np.array([-along[1], along[0]]))), 1),
+            ]
+        record["size_mm"] = _round(np.ptp(self.outline, axis=0), 1)
         if self.edge_lengths_flat is not None:
             record["edge_lengths_flat_mm"] = _round(self.edge_lengths_flat, 3)
             record["edge_lengths_3d_mm"] = _round(self.edge_lengths_3d, 3)

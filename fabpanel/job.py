@@ -924,6 +924,21 @@ class OutputSection(_Section):
     report: bool = True
 
 
+class DocsSection(_Section):
+    """[docs]: the shop documents (schedules, key plan, IFC model) in docs/ and model/."""
+
+    _table = "docs"
+
+    #: write docs/*.csv, docs/keyplan.pdf and model/assembly.ifc after the cut stage
+    write: bool = True
+    #: project name in the title blocks and the IFC project (default: the input file's name)
+    project: str | None = None
+    #: revision letter or number in the title blocks
+    revision: str = "A"
+    #: spare fasteners ordered on top of the count, as a share (0.05: 5 %)
+    spares: float = Field(default=0.05, ge=0, le=1)
+
+
 class RunSection(_Section):
     """[run]: where the per-panel work runs."""
 
@@ -951,6 +966,7 @@ class _JobModel(_Section):
     loads: LoadsSection = LoadsSection()
     structure: StructureSection = StructureSection()
     output: OutputSection = OutputSection()
+    docs: DocsSection = DocsSection()
     run: RunSection = RunSection()
 
     def _check(self, w: _Written) -> None:

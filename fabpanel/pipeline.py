@@ -437,6 +437,12 @@ def _write_outputs(
         note(plate_files, "cut/nests")
 
     manifest = build_manifest(result, files)
+    if job.docs.write and result.model is not None and result.flat is not None:
+        from .docs import DocSource, write_docs
+
+        source = DocSource.from_manifest(manifest, _run_name(job))
+        documents = write_docs(source, folder, {p.id: p.brep for p in result.model.parts}, workers)
+        manifest["documents"] = sorted(str(p.relative_to(folder)) for p in documents)
     (folder / "manifest.json").write_text(json.dumps(manifest, indent=1, default=_json_default))
     _write_bom(result, folder / "bom.csv", files)
     if result.flat is not None and result.model is not None:
@@ -448,6 +454,11 @@ def _write_outputs(
         write_report(result, folder / "report")
     written = sum(1 for path in folder.rglob("*") if path.is_file())
     progress.finish("write", time.perf_counter() - started, f"{written} files")
+
+
+def _run_name(job: Job) -> str:
+    """The run's name in documents: the input file's name without its suffix."""
+    return job.input_path.stem if job.input_path else "fabpanel"
 
 
 def _json_default(value):
@@ -473,6 +484,7 @@ def versions() -> dict[str, str | None]:
         "ezdxf",
         "spyrrow",
         "manifold3d",
+        "ifcopenshell",
     ):
         try:
             found[name] = version(name)
@@ -513,11 +525,20 @@ def build_manifest(result: Result, files: dict[str, list[str]]) -> dict:
     flat_by_id, plate_of = _flat_and_plate_of(result)
     parts = []
     if result.model is not None:
+        from .flat.nest import cut_length
+
+        origin = result.surface.origin
         for part in result.model.parts:
             record = part.to_dict()
             record["files"] = files.get(part.id, [])
+            # the design's own frame, as the panel corners
+            if "centroid_mm" in record:
+                record["centroid_mm"] = np.round(part.centroid + origin, 3).tolist()
+            for hole in record.get("bolt_holes", ()):
+                hole["centre_mm"] = np.round(np.add(hole["centre_mm"], origin), 3).tolist()
             if part.id in flat_by_id:
-                record["flat"] = flat_by_id[part.id].to_dict()
+                flat = flat_by_id[part.id]
+                record["flat"] = {**flat.to_dict(), "cut_length_mm": round(cut_length(flat), 1)}
                 record["plate"] = plate_of.get(part.id)
             parts.append(record)
     stages = {"surface": result.surface.to_dict()}

@@ -69,6 +69,13 @@ class Bending:
             return 0.0
         return float(self.radii[:, 0].min())
 
+    def largest_radius(self) -> float:
+        """The widest bending radius of a single-curved sheet along its bend lines, mm (0
+        otherwise)."""
+        if self.form != "single" or not len(self.radii):
+            return 0.0
+        return float(self.radii[:, 1].max())
+
     def instruction(self) -> str:
         """The etched forming instruction: ``OUT CONVEX R4000`` (cylinder), ``OUT CONCAVE
         R866-1501`` (a cone's radii along its rulings), ``OUT CONVEX R934+`` (from R934 opening

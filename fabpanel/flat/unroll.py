@@ -214,6 +214,7 @@ def unroll_sheet(part: Part) -> FlatPart:
         max_strain=strain,
         forming=bending.instruction(),
         bend_radius=bending.smallest_radius(),
+        bend_radius_max=bending.largest_radius(),
         face=HIDDEN_FACE_UP,
         edge_lengths_flat=lengths_flat,
         edge_lengths_3d=lengths_3d,

@@ -122,6 +122,7 @@ def build(
                     volume=record["volume"],
                     area=record["area"],
                     mass=record["volume"] * density,
+                    centroid=record.get("centroid"),
                     brep=record["brep"],
                     surface_grid=record.get("surface_grid"),
                     outline=record.get("outline"),

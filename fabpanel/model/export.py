@@ -232,27 +232,44 @@ def write_glb(model: Model, path: str | Path, workers: int = 1) -> Path:
 
 def _part_meshes(parts: list[Part], workers: int) -> list[tuple[np.ndarray, np.ndarray]]:
     """Every part's preview tessellation (vertices mm, triangles), in worker processes."""
-    if workers <= 1 or len(parts) < 16:
-        return _tessellated(parts)
+    rule = (GLB_RELATIVE, *GLB_DEFLECTION, GLB_ANGLE)
+    return tessellate_breps([(p.id, p.brep) for p in parts], rule, workers)
+
+
+def tessellate_breps(
+    breps: list[tuple[str, bytes]],
+    rule: tuple[float, float, float, float],
+    workers: int = 1,
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Tessellate named BREP solids: (vertices mm, triangles) each, in ``workers`` worker
+    processes. ``rule`` is (deflection relative to the part's bounding-box diagonal, smallest
+    and largest deflection mm, angular deflection rad)."""
+    if workers <= 1 or len(breps) < 16:
+        return _tessellated(breps, rule)
+    from functools import partial
+
     from ..parallel import worker_pool
 
-    size = -(-len(parts) // (4 * workers))
-    chunks = [parts[i : i + size] for i in range(0, len(parts), size)]
+    size = -(-len(breps) // (4 * workers))
+    chunks = [breps[i : i + size] for i in range(0, len(breps), size)]
     # fresh workers: this process may have run threads (spyrrow's nests, OCCT) whose locks a
     # forked worker would inherit held, and then wait on forever (seen in the demo)
     with worker_pool(workers, fresh=True) as pool:
-        return [mesh for chunk in pool.map(_tessellated, chunks) for mesh in chunk]
+        work = partial(_tessellated, rule=rule)
+        return [mesh for chunk in pool.map(work, chunks) for mesh in chunk]
 
 
-def _tessellated(parts: list[Part]) -> list[tuple[np.ndarray, np.ndarray]]:
+def _tessellated(
+    breps: list[tuple[str, bytes]], rule: tuple[float, float, float, float]
+) -> list[tuple[np.ndarray, np.ndarray]]:
     from ..surface.brep import bbox_diagonal, tessellate
 
+    relative, low, high, angle = rule
     meshes = []
-    for part in parts:
-        shape = occ.from_brep(part.brep, part.id)
-        low, high = GLB_DEFLECTION
-        deflection = float(np.clip(GLB_RELATIVE * bbox_diagonal(shape), low, high))
-        vertices, triangles, _ = tessellate(shape, deflection, GLB_ANGLE)
+    for name, brep in breps:
+        shape = occ.from_brep(brep, name)
+        deflection = float(np.clip(relative * bbox_diagonal(shape), low, high))
+        vertices, triangles, _ = tessellate(shape, deflection, angle)
         meshes.append((vertices, triangles))
     return meshes
 

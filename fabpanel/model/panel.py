@@ -575,12 +575,14 @@ def _sheet(
         kept = []
     opening_area = sum(o.area for o, _, _ in kept)
     cavity = 1 if kind == "sheet-top" else 0
+    volume, centroid = occ.mass_properties(solid)
     return {
         "slot_missing": missing,
         "id": name,
         "kind": kind,
         "thickness": thickness,
-        "volume": occ.volume(solid),
+        "volume": volume,
+        "centroid": centroid,
         "area": float(mid_area - opening_area),
         "brep": occ.to_brep(solid),
         "surface_grid": surface_grid,

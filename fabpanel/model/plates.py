@@ -204,11 +204,13 @@ def plate(
             continue
         flatness = max(flatness, float(np.minimum(np.abs(dist), np.abs(dist - thickness)).max()))
     net = abs(polygon_area(outline)) - sum(np.pi * d**2 / 4 for _, d in holes)
+    volume, centroid = occ.mass_properties(solid, adaptive=False)
     return {
         "id": name,
         "kind": kind,
         "thickness": thickness,
-        "volume": occ.volume(solid, adaptive=False),
+        "volume": volume,
+        "centroid": centroid,
         "area": float(net),
         "brep": occ.to_brep(solid),
         "outline": outline,
