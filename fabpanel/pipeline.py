@@ -437,6 +437,7 @@ def _write_outputs(
         note(plate_files, "cut/nests")
 
     manifest = build_manifest(result, files)
+    source = None
     if job.docs.write and result.model is not None and result.flat is not None:
         from .docs import DocSource, write_docs
 
@@ -451,7 +452,7 @@ def _write_outputs(
         from .report import write_report
 
         (folder / "report").mkdir()
-        write_report(result, folder / "report")
+        write_report(result, folder / "report", source)
     written = sum(1 for path in folder.rglob("*") if path.is_file())
     progress.finish("write", time.perf_counter() - started, f"{written} files")
 

@@ -116,7 +116,7 @@ def test_output_contract(vault_run):
     report = (out / "report" / "index.html").read_text()
     # the default (global) rationalisation draws curvature before/after and the deviation map
     assert 'alt="Gaussian curvature before and after"' in report
-    assert 'alt="deviation from the design surface"' in report
+    assert 'alt="Deviation from the design surface"' in report
 
 
 def test_step_reimports_to_the_manifest_parts(vault_run):
@@ -285,3 +285,72 @@ def test_global_develop_runs_end_to_end(tmp_path):
     assert manifest["job"]["develop"]["method"] == "global"
     assert len(manifest["parts"]) == 10 * GRID_U * GRID_V
     assert not [i for i in result.issues if i.severity == "error"]
+
+
+#: injected before the report's own scripts: records console errors and uncaught exceptions,
+#: then on load every image that did not decode and every table wider than its box, and
+#: writes them into the page, which --dump-dom prints
+BROWSER_PROBE = """<script>
+window.__probe = {errors: [], images: [], tables: [], overflow: false};
+(function(){
+  var error = console.error;
+  console.error = function(){ window.__probe.errors.push(Array.from(arguments).join(' '));
+    error.apply(console, arguments); };
+  window.addEventListener('error', function(e){
+    window.__probe.errors.push(String(e.message || (e.target && e.target.src) || e)); }, true);
+  window.addEventListener('load', function(){
+    var p = window.__probe;
+    document.querySelectorAll('img').forEach(function(img){
+      if (!img.complete || img.naturalWidth === 0) p.images.push(img.alt || img.src.slice(0, 60)); });
+    document.querySelectorAll('table').forEach(function(t){
+      var box = t.parentElement, style = getComputedStyle(box);
+      if (t.scrollWidth > box.clientWidth + 1 && style.overflowX !== 'auto') p.tables.push(t.id); });
+    p.overflow = document.documentElement.scrollWidth > window.innerWidth + 1;
+    p.svg = document.querySelectorAll('svg').length;
+    p.sortable = document.querySelectorAll('table.sortable').length;
+    var out = document.createElement('pre'); out.id = 'probe';
+    out.textContent = JSON.stringify(p); document.body.appendChild(out);
+  });
+})();
+</script>"""
+
+
+def test_report_renders_in_a_real_browser(vault_run, tmp_path):
+    """Headless Chromium loads the report: no console error, every image decodes, no table
+    wider than its box, no horizontal page overflow; the plate thumbnails link to images that
+    exist. Also checks the PDF and that no table cell holds a raw dict."""
+    import re
+    import shutil
+    import subprocess
+
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("chromium is not installed (.ci/setup --test installs it)")
+    report = vault_run.out_dir / "report"
+    page = report / "index.html"
+    text = page.read_text()
+    assert "<td>{" not in text and "{&quot;" not in text  # never a raw dict in a cell
+    for link in re.findall(r'<a href="(\.\./cut/nests/[^"]+)"', text):
+        assert (report / link).is_file(), link
+    probed = tmp_path / "report" / "index.html"
+    probed.parent.mkdir()
+    probed.write_text(text.replace("<head>", "<head>" + BROWSER_PROBE, 1))
+    dom = subprocess.run(
+        [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--window-size=1280,900",
+         "--virtual-time-budget=20000", "--dump-dom", probed.as_uri()],
+        check=False, capture_output=True, text=True, timeout=120,
+    ).stdout  # fmt: skip
+    found = re.search(r'<pre id="probe">(.*?)</pre>', dom, re.DOTALL)
+    assert found, "the page did not finish loading"
+    probe = json.loads(found.group(1).replace("&quot;", '"').replace("&amp;", "&"))
+    assert probe["errors"] == [] and probe["images"] == [] and probe["tables"] == []
+    assert not probe["overflow"]
+    assert probe["svg"] >= 1 and probe["sortable"] >= 1  # the key plan; a sortable table
+    pdf = report / "report.pdf"
+    assert pdf.read_bytes().startswith(b"%PDF")
+    if shutil.which("pdftotext"):
+        pdf_text = subprocess.run(
+            ["pdftotext", str(pdf), "-"], capture_output=True, text=True, check=True
+        ).stdout
+        for heading in ("Verdicts", "Key plan", "Shop schedules", "Structure", "Issues"):
+            assert heading in pdf_text and heading in text, heading

@@ -27,7 +27,7 @@ A3 = (420.0, 297.0)
 MARGIN = 10.0
 TITLE_HEIGHT = 28.0
 #: label font sizes, pt: the largest used and the smallest legible on a printed A3
-MAX_FONT = 9.0
+MAX_FONT = 14.0
 MIN_FONT = 3.5
 POINT_MM = 25.4 / 72.0
 #: a label's width per character, in font sizes (a sans-serif's digits and capitals)
@@ -152,7 +152,15 @@ def _reading_angle(quad: np.ndarray) -> float:
 
 
 def write_keyplan(source: DocSource, path: str | Path) -> Path:
-    """Draw the key plan (module docstring) to ``path``."""
+    """Draw the key plan (module docstring) to ``path`` (PDF)."""
+    path = Path(path)
+    draw_keyplan(source, path, "pdf")
+    return path
+
+
+def draw_keyplan(source: DocSource, target, file_format: str) -> None:
+    """Draw the key plan to ``target`` (a path or a file object) as ``pdf``, ``svg`` or
+    ``png``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -161,6 +169,10 @@ def write_keyplan(source: DocSource, path: str | Path) -> Path:
 
     view = keyplan_view(source)
     inch = 25.4
+    # SVG ids from a fixed salt and text kept as text: the same run gives the same page, and
+    # the panel ids can be searched in a browser
+    matplotlib.rcParams["svg.hashsalt"] = "fabpanel"
+    matplotlib.rcParams["svg.fonttype"] = "none"
     fig = plt.figure(figsize=(A3[0] / inch, A3[1] / inch))
     ax = fig.add_axes((0, 0, 1, 1))
     ax.set_xlim(0, A3[0]), ax.set_ylim(0, A3[1])
@@ -188,11 +200,14 @@ def write_keyplan(source: DocSource, path: str | Path) -> Path:
             family="DejaVu Sans",
         )
     _title_block(ax, source, view)
-    path = Path(path)
     # no creation time: the same run gives the same file
-    fig.savefig(path, format="pdf", metadata={"CreationDate": None, "Creator": "fabpanel"})
+    metadata = {
+        "pdf": {"CreationDate": None, "Creator": "fabpanel"},
+        "svg": {"Date": None, "Creator": "fabpanel"},
+        "png": {"Software": "fabpanel"},
+    }[file_format]
+    fig.savefig(target, format=file_format, metadata=metadata, dpi=150)
     plt.close(fig)
-    return path
 
 
 def _title_block(ax, source: DocSource, view: KeyPlanView) -> None:

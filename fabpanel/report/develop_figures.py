@@ -41,9 +41,30 @@ def _cell_means(values: np.ndarray) -> np.ndarray:
     )
 
 
+#: a figure is drawn in 3D when some panel keeps less than this share of its area in plan (a
+#: vault's steep sides, where a plan view squashes the cells)
+PLAN_SHARE = 0.4
+
+
+def steep(samples: np.ndarray) -> bool:
+    """Whether a plan view would squash some panel (``PLAN_SHARE``)."""
+    true = _cell_areas(samples).sum(axis=(1, 2))
+    flat = samples.copy()
+    flat[..., 2] = 0.0
+    return bool(np.any(_cell_areas(flat).sum(axis=(1, 2)) < PLAN_SHARE * true))
+
+
+def _axes(fig, rows: int, columns: int, index: int, samples: np.ndarray):
+    return fig.add_subplot(rows, columns, index, projection="3d" if steep(samples) else None)
+
+
 def _plan_cells(ax, samples: np.ndarray, values: np.ndarray, **style):
-    """Every grid cell as a filled quad in plan (x, y in m), coloured by ``values``."""
+    """Every grid cell as a filled quad, coloured by ``values``: in plan (x, y in m), or in 3D
+    when ``ax`` is a 3D axis."""
     from matplotlib.collections import PolyCollection
+
+    if hasattr(ax, "zaxis"):
+        return _cells_3d(ax, samples, values, **style)
 
     corners = (
         np.stack(
@@ -74,8 +95,28 @@ def _plan_cells(ax, samples: np.ndarray, values: np.ndarray, **style):
     return cells
 
 
-def curvature_figure(developed) -> str | None:
-    """Base64 PNG: Gaussian curvature of the panels on the design surface and after
+def _cells_3d(ax, samples: np.ndarray, values: np.ndarray, cmap: str, clim):
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    corners = np.stack(
+        [samples[:, :-1, :-1], samples[:, 1:, :-1], samples[:, 1:, 1:], samples[:, :-1, 1:]],
+        axis=3,
+    ).reshape(-1, 4, 3)
+    cells = Poly3DCollection(corners / 1000.0, cmap=cmap, edgecolor="none")
+    cells.set_array(values.ravel())
+    cells.set_clim(*clim)
+    ax.add_collection3d(cells)
+    points = samples.reshape(-1, 3) / 1000.0
+    lo, hi = points.min(0), points.max(0)
+    ax.set_xlim(lo[0], hi[0]), ax.set_ylim(lo[1], hi[1]), ax.set_zlim(lo[2], hi[2])
+    ax.set_box_aspect(np.maximum(hi - lo, 1e-3))
+    ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]")
+    ax.view_init(elev=28, azim=-60)
+    return cells
+
+
+def curvature_figure(developed) -> bytes | None:
+    """PNG: Gaussian curvature of the panels on the design surface and after
     development, on one colour scale; ``None`` when the panels did not move."""
     if developed.design_samples is None:
         return None
@@ -84,12 +125,13 @@ def curvature_figure(developed) -> str | None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .html import _png
+    from .figures import png_bytes
 
     before = gaussian_curvature(developed.design_samples)
     after = gaussian_curvature(developed.samples)
     limit = max(float(np.percentile(np.abs(before), 99)), CURVATURE_SCALE_FLOOR)
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
+    fig = plt.figure(figsize=(11, 4.8), constrained_layout=True)
+    axes = [_axes(fig, 1, 2, i, developed.samples) for i in (1, 2)]
     for ax, grids, values, title in (
         (axes[0], developed.design_samples, before, "design surface"),
         (axes[1], developed.samples, after, f"after '{developed.method}'"),
@@ -98,14 +140,18 @@ def curvature_figure(developed) -> str | None:
         ax.set_title(
             f"Gaussian curvature, {title}: |K| max {np.abs(values).max():.3g} 1/m²", fontsize=10
         )
-    fig.colorbar(cells, ax=axes, shrink=0.8, label="K [1/m²]")
-    data = _png(fig)
+    # the scale is clipped at the design's 99th percentile, so one sharp cell does not wash
+    # out the rest: the colour bar says so
+    fig.colorbar(
+        cells, ax=axes, shrink=0.8, extend="both", label=f"K [1/m²], clipped at ±{limit:.3g}"
+    )
+    data = png_bytes(fig)
     plt.close(fig)
     return data
 
 
-def deviation_figure(developed) -> str | None:
-    """Base64 PNG: distance of the developed panels from the design surface, mm."""
+def deviation_figure(developed) -> bytes | None:
+    """PNG: distance of the developed panels from the design surface, mm."""
     if developed.deviation is None:
         return None
     import matplotlib
@@ -113,10 +159,14 @@ def deviation_figure(developed) -> str | None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .html import _png
+    from .figures import png_bytes
 
-    values = _cell_means(developed.deviation)
-    fig, ax = plt.subplots(figsize=(6.5, 4.6), constrained_layout=True)
+    # each cell coloured by its largest corner value, so the colour bar ends at the maximum
+    # the title names
+    d = developed.deviation
+    values = np.maximum.reduce([d[:, :-1, :-1], d[:, 1:, :-1], d[:, 1:, 1:], d[:, :-1, 1:]])
+    fig = plt.figure(figsize=(6.5, 4.8), constrained_layout=True)
+    ax = _axes(fig, 1, 1, 1, developed.samples)
     cells = _plan_cells(
         ax, developed.samples, values, cmap="viridis", clim=(0.0, max(float(values.max()), 1e-3))
     )
@@ -126,6 +176,6 @@ def deviation_figure(developed) -> str | None:
         fontsize=10,
     )
     fig.colorbar(cells, ax=ax, shrink=0.8, label="mm")
-    data = _png(fig)
+    data = png_bytes(fig)
     plt.close(fig)
     return data

@@ -1,216 +1,183 @@
-"""The self-contained HTML report: tables of the stage metrics and embedded PNG figures."""
+"""The HTML report (``report/index.html``): the report's blocks as one self-contained page.
+
+Figures are embedded (PNG as data URIs, the key plan as inline SVG); plate thumbnails link to
+the full images in ``cut/nests``. Wide tables scroll inside their own box instead of widening the
+page; long ones (per panel, issues) sort by a clicked column and filter by a search box.
+"""
 
 from __future__ import annotations
 
 import base64
 import html
-import io
-import json
-from pathlib import Path
 
-import numpy as np
+from .blocks import (
+    Block,
+    Bullets,
+    Figure,
+    Gallery,
+    Heading,
+    Table,
+    Text,
+    Vector,
+    Verdicts,
+)
 
-from .develop_figures import curvature_figure, deviation_figure
+STYLE = """
+body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;max-width:1180px;margin:1.5em auto;
+ padding:0 1em;color:#1f2328;line-height:1.4}
+h1{font-size:1.6em;margin-bottom:.2em}h2{border-bottom:1px solid #d0d7de;padding-bottom:.2em;
+ margin-top:1.8em}h3{margin-top:1.2em}
+nav a{margin-right:.8em;font-size:.9em}
+.scroll{overflow-x:auto;max-width:100%;margin:.5em 0}
+table{border-collapse:collapse;font-size:13px}td,th{border:1px solid #d0d7de;padding:3px 7px;
+ text-align:left;vertical-align:top}th{background:#f6f8fa;position:sticky;top:0}
+td.num{text-align:right;font-variant-numeric:tabular-nums}
+table.sortable th{cursor:pointer}table.sortable th:after{content:" \\2195";color:#8c959f}
+.search{margin:.3em 0;padding:3px 6px;width:18em}
+.cards{display:grid;grid-template-columns:repeat(auto-fill,minmax(270px,1fr));gap:10px}
+.card{border:1px solid #d0d7de;border-left:6px solid #8c959f;border-radius:6px;padding:8px 12px}
+.card.pass{border-left-color:#1a7f37}.card.fail{border-left-color:#cf222e}
+.card h3{margin:0 0 .3em 0;font-size:1.05em}.state{float:right;font-weight:600}
+.pass .state{color:#1a7f37}.fail .state{color:#cf222e}
+.card p{margin:.15em 0;font-size:13px}
+figure{margin:1em 0}figure img,figure svg{max-width:100%;height:auto}
+figcaption{font-size:13px;color:#57606a}
+.gallery{display:flex;flex-wrap:wrap;gap:10px}.gallery figure{margin:0;width:220px}
+"""
 
-CLASS_COLOURS = {
-    "planar": "#4c9be8",
-    "single-curved": "#59b36b",
-    "conical": "#e0b03a",
-    "not-developable": "#d9534f",
-}
+SCRIPT = """
+document.querySelectorAll('table.sortable').forEach(function(table){
+  var heads = table.querySelectorAll('th');
+  heads.forEach(function(th, col){
+    th.addEventListener('click', function(){
+      var body = table.tBodies[0], rows = Array.from(body.rows);
+      var dir = th.dataset.dir === 'asc' ? -1 : 1; th.dataset.dir = dir > 0 ? 'asc' : 'desc';
+      rows.sort(function(a, b){
+        var x = a.cells[col].textContent, y = b.cells[col].textContent;
+        var p = parseFloat(x), q = parseFloat(y);
+        if (!isNaN(p) && !isNaN(q)) return dir * (p - q);
+        return dir * x.localeCompare(y);
+      });
+      rows.forEach(function(r){ body.appendChild(r); });
+    });
+  });
+});
+document.querySelectorAll('input.search').forEach(function(box){
+  var table = document.getElementById(box.dataset.table);
+  box.addEventListener('input', function(){
+    var term = box.value.toLowerCase();
+    Array.from(table.tBodies[0].rows).forEach(function(r){
+      r.style.display = r.textContent.toLowerCase().indexOf(term) >= 0 ? '' : 'none';
+    });
+  });
+});
+"""
 
 
-def _png(fig) -> str:
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=110, bbox_inches="tight")
-    return base64.b64encode(buffer.getvalue()).decode()
+def _numeric(text: str) -> bool:
+    head = text.split(" ")[0].replace("−", "-")
+    try:
+        float(head)
+    except ValueError:
+        return False
+    return True
 
 
-def panel_figure(developed) -> str:
-    """Base64 PNG: the panels' sample grids in 3D, coloured by class."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-
-    fig = plt.figure(figsize=(8, 5))
-    ax = fig.add_subplot(projection="3d")
-    grids = developed.samples
-    for grid, cls, pid in zip(grids, developed.classes, developed.panel_ids):
-        quads = np.stack([grid[:-1, :-1], grid[1:, :-1], grid[1:, 1:], grid[:-1, 1:]], axis=2)
-        poly = Poly3DCollection(
-            quads.reshape(-1, 4, 3) / 1000.0,
-            facecolor=CLASS_COLOURS[cls],
-            edgecolor="none",
-            alpha=0.9,
+def _table(block: Table, index: int) -> str:
+    cls = ' class="sortable"' if block.sortable else ""
+    table_id = f"t{index}"
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in block.header)
+    body = "".join(
+        "<tr>"
+        + "".join(
+            f'<td class="num">{html.escape(c)}</td>'
+            if _numeric(c)
+            else f"<td>{html.escape(c)}</td>"
+            for c in row
         )
-        ax.add_collection3d(poly)
-        outline = np.concatenate([grid[:, 0], grid[-1, :], grid[::-1, -1], grid[0, ::-1]]) / 1e3
-        ax.plot(*outline.T, color="k", linewidth=0.8)
-        centre = grid[grid.shape[0] // 2, grid.shape[1] // 2] / 1e3
-        ax.text(*centre, pid, fontsize=6, ha="center")
-    points = grids.reshape(-1, 3) / 1000.0
-    lo, hi = points.min(0), points.max(0)
-    ax.set_xlim(lo[0], hi[0]), ax.set_ylim(lo[1], hi[1]), ax.set_zlim(lo[2], hi[2])
-    ax.set_box_aspect(np.maximum(hi - lo, 1e-3))
-    ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]")
-    ax.view_init(elev=28, azim=-60)
-    data = _png(fig)
-    plt.close(fig)
-    return data
-
-
-def layout_figure(layout, surface) -> str:
-    """Base64 PNG: the panel layout in plan and in 3D, singular vertices marked by valence."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ..panelize.quality import singular_vertices
-
-    corners = layout.vertices[layout.quads] / 1000.0
-    closed = np.concatenate([corners, corners[:, :1]], axis=1)
-    singular = singular_vertices(layout)
-    fig = plt.figure(figsize=(11, 4.6))
-    plan = fig.add_subplot(1, 2, 1)
-    for quad in closed:
-        plan.plot(quad[:, 0], quad[:, 1], color="0.3", linewidth=0.6)
-    for loop in surface.boundary_loops:
-        points = surface.vertices[np.append(loop, loop[0])] / 1000.0
-        plan.plot(points[:, 0], points[:, 1], color="tab:blue", linewidth=1.2)
-    colours = {3: "tab:orange", 5: "tab:red", 6: "tab:purple"}
-    for valence in sorted({s["valence"] for s in singular}):
-        points = np.array([s["position_mm"] for s in singular if s["valence"] == valence]) / 1e3
-        plan.scatter(
-            points[:, 0],
-            points[:, 1],
-            s=30,
-            color=colours.get(valence, "k"),
-            label=f"valence {valence}",
-            zorder=3,
-        )
-    if singular:
-        plan.legend(loc="best", fontsize=8)
-    plan.set_aspect("equal")
-    plan.set_xlabel("x [m]"), plan.set_ylabel("y [m]")
-    plan.set_title(f"{len(layout.quads)} panels, {len(singular)} singular vertices", fontsize=10)
-    view = fig.add_subplot(1, 2, 2, projection="3d")
-    for quad in closed:
-        view.plot(*quad.T, color="0.3", linewidth=0.5)
-    points = layout.vertices / 1000.0
-    lo, hi = points.min(0), points.max(0)
-    view.set_box_aspect(np.maximum(hi - lo, 1e-3))
-    view.view_init(elev=30, azim=-60)
-    data = _png(fig)
-    plt.close(fig)
-    return data
-
-
-def _table(rows: list[tuple[str, object]]) -> str:
-    cells = "".join(
-        f"<tr><th>{html.escape(str(k))}</th><td>{html.escape(_fmt(v))}</td></tr>" for k, v in rows
+        + "</tr>"
+        for row in block.rows
     )
-    return f"<table>{cells}</table>"
+    caption = f"<h4>{html.escape(block.caption)}</h4>" if block.caption else ""
+    search = (
+        f'<input class="search" type="search" placeholder="filter rows" data-table="{table_id}">'
+        if block.sortable
+        else ""
+    )
+    return (
+        f'{caption}{search}<div class="scroll"><table id="{table_id}"{cls}><thead><tr>{head}'
+        f"</tr></thead><tbody>{body}</tbody></table></div>"
+    )
 
 
-def _fmt(value) -> str:
-    if isinstance(value, float):
-        return f"{value:.6g}"
-    if isinstance(value, (dict, list)):
-        return json.dumps(value)
-    return str(value)
+def _verdicts(block: Verdicts) -> str:
+    cards = "".join(
+        f'<div class="card {v.state.replace(" ", "-")}"><h3>{html.escape(v.name)}'
+        f'<span class="state">{html.escape(v.state.upper())}</span></h3>'
+        + "".join(f"<p>{html.escape(line)}</p>" for line in v.lines)
+        + "</div>"
+        for v in block.items
+    )
+    out = f'<div class="cards">{cards}</div>'
+    if block.not_modelled:
+        items = "".join(f"<li>{html.escape(a)}</li>" for a in block.not_modelled)
+        out += (
+            "<details><summary>What the structural check assumes and does not model "
+            f"({len(block.not_modelled)})</summary><ul>{items}</ul></details>"
+        )
+    return out
 
 
-def write_report(result, folder: Path) -> None:
-    """Write ``summary.json`` and ``index.html`` into ``folder``."""
-    summary = result.summary
-    (folder / "summary.json").write_text(json.dumps(summary, indent=1))
-    sections = [
-        f"<h1>fabpanel report: {html.escape(result.surface.source.name)}</h1>",
-        "<h2>Summary</h2>",
-        _table(
-            [(k, v) for k, v in summary.items() if not isinstance(v, dict)]
-            + [("input", summary["input"])]
-        ),
-    ]
-    for key in ("panels", "developability", "parts", "flat", "nests", "structure", "timings_s"):
-        if key == "structure" and key in summary:
-            from .structure_figures import structure_section
+def _png(data: bytes) -> str:
+    return "data:image/png;base64," + base64.b64encode(data).decode()
 
-            sections.append(structure_section(result))
-            continue
-        if key in summary:
-            sections.append(f"<h2>{key.capitalize()}</h2>")
-            sections.append(_table(list(summary[key].items())))
-            if key == "panels" and result.layout is not None:
-                sections.append(
-                    f'<img alt="panel layout" src="data:image/png;base64,'
-                    f'{layout_figure(result.layout, result.surface)}">'
-                )
-            if key == "developability" and result.developed is not None:
-                legend = " ".join(
-                    f'<span style="color:{c}">&#9632; {n}</span>' for n, c in CLASS_COLOURS.items()
-                )
-                sections.append(
-                    f'<p>{legend}</p><img alt="panels coloured by class" '
-                    f'src="data:image/png;base64,{panel_figure(result.developed)}">'
-                )
-            if key == "developability" and result.developed is not None:
-                for figure, alt in (
-                    (curvature_figure, "Gaussian curvature before and after"),
-                    (deviation_figure, "deviation from the design surface"),
-                ):
-                    data = figure(result.developed)
-                    if data is not None:
-                        sections.append(f'<img alt="{alt}" src="data:image/png;base64,{data}">')
-                per_panel = result.developed.metrics["per_panel"]
-                head = "".join(
-                    f"<th>{html.escape(h)}</th>"
-                    for h in ["panel", *next(iter(per_panel.values())).keys()]
-                )
-                body = "".join(
-                    "<tr><td>"
-                    + pid
-                    + "</td>"
-                    + "".join(f"<td>{html.escape(_fmt(v))}</td>" for v in rec.values())
-                    + "</tr>"
-                    for pid, rec in per_panel.items()
-                )
-                sections.append(
-                    f"<details><summary>Per panel</summary><table><tr>{head}</tr>"
-                    f"{body}</table></details>"
-                )
-    if result.nests is not None and result.out_dir is not None:
-        sections.append("<h2>Plates</h2>")
-        for plate in result.nests.plates:
-            png = result.out_dir / "cut" / "nests" / f"{plate.name}.png"
-            if png.exists():
-                data = base64.b64encode(png.read_bytes()).decode()
-                sections.append(
-                    f"<h3>{plate.name}: {len(plate.placements)} parts, "
-                    f"utilisation {plate.utilisation:.1%}</h3>"
-                    f'<img alt="{plate.name}" style="max-width:100%" '
-                    f'src="data:image/png;base64,{data}">'
-                )
-    if result.issues:
-        sections.append(
-            "<h2>Issues</h2><table>"
-            + "".join(
-                f"<tr><td>{i.severity}</td><td>{html.escape(i.code)}</td><td>{i.item}</td>"
-                f"<td>{html.escape(i.message)}</td></tr>"
-                for i in result.issues
+
+def render(blocks: list[Block]) -> str:
+    """The whole page."""
+    title = next((b.text for b in blocks if isinstance(b, Heading) and b.level == 1), "report")
+    nav = "".join(
+        f'<a href="#{b.anchor}">{html.escape(b.text)}</a>'
+        for b in blocks
+        if isinstance(b, Heading) and b.anchor
+    )
+    parts = []
+    for index, block in enumerate(blocks):
+        if isinstance(block, Heading):
+            anchor = f' id="{block.anchor}"' if block.anchor else ""
+            parts.append(f"<h{block.level}{anchor}>{html.escape(block.text)}</h{block.level}>")
+            if block.level == 1:
+                parts.append(f"<nav>{nav}</nav>")
+        elif isinstance(block, Text):
+            parts.append(f"<p>{html.escape(block.text)}</p>")
+        elif isinstance(block, Bullets):
+            parts.append(
+                "<ul>" + "".join(f"<li>{html.escape(i)}</li>" for i in block.items) + "</ul>"
             )
-            + "</table>"
-        )
-    style = (
-        "body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}"
-        "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #ccc;"
-        "padding:2px 6px;text-align:left;font-size:13px}th{background:#f3f3f3}"
+        elif isinstance(block, Table):
+            parts.append(_table(block, index))
+        elif isinstance(block, Verdicts):
+            parts.append(_verdicts(block))
+        elif isinstance(block, Figure):
+            caption = html.escape(block.caption)
+            parts.append(
+                f'<figure><img alt="{caption}" src="{_png(block.png)}">'
+                f"<figcaption>{caption}</figcaption></figure>"
+            )
+        elif isinstance(block, Vector):
+            svg = block.svg[block.svg.find("<svg") :]
+            parts.append(
+                f"<figure>{svg}<figcaption>{html.escape(block.caption)}</figcaption></figure>"
+            )
+        elif isinstance(block, Gallery):
+            items = "".join(
+                f'<figure><a href="{html.escape(link)}"><img alt="{html.escape(caption)}" '
+                f'src="{_png(thumb)}"></a><figcaption>{html.escape(caption)}</figcaption></figure>'
+                for thumb, link, caption in block.items
+            )
+            parts.append(f'<div class="gallery">{items}</div>')
+    return (
+        "<!doctype html><html lang='en'><head><meta charset='utf-8'>"
+        "<meta name='viewport' content='width=device-width, initial-scale=1'>"
+        f"<title>{html.escape(title)}</title><style>{STYLE}</style></head><body>"
+        f"{''.join(parts)}<script>{SCRIPT}</script></body></html>"
     )
-    page = (
-        f"<!doctype html><html><head><meta charset='utf-8'><title>fabpanel report</title>"
-        f"<style>{style}</style></head><body>{''.join(sections)}</body></html>"
-    )
-    (folder / "index.html").write_text(page, encoding="utf-8")

@@ -3,8 +3,6 @@ von Mises utilisation map (ULS), first buckling mode, and the per-panel table.""
 
 from __future__ import annotations
 
-import html
-
 import numpy as np
 
 #: S8R node order around the element outline (corner, mid-side, corner...)
@@ -26,7 +24,7 @@ def _view_3d(ax, points):
     ax.view_init(elev=28, azim=-60)
 
 
-def _shape_figure(structure, field: np.ndarray, title: str, label: str, cmap: str) -> str:
+def _shape_figure(structure, field: np.ndarray, title: str, label: str, cmap: str) -> bytes:
     """Top sheet moved by ``field (n, 3)`` scaled to 5 % of the model size, coloured by
     |field|, over the undeformed outline."""
     import matplotlib
@@ -35,7 +33,7 @@ def _shape_figure(structure, field: np.ndarray, title: str, label: str, cmap: st
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    from .html import _png
+    from .figures import png_bytes
 
     shell = structure.shell
     polys, _ = _sheet(structure)
@@ -43,7 +41,9 @@ def _shape_figure(structure, field: np.ndarray, title: str, label: str, cmap: st
     amplitude = np.linalg.norm(field, axis=1)
     scale = 0.05 * size / max(amplitude.max(), 1e-300)
     moved = (shell.nodes + scale * field) / 1000.0
-    values = amplitude[polys].mean(axis=1)
+    # each element coloured by its largest nodal value, so the colour bar ends at the largest
+    # value drawn, which the title names
+    values = amplitude[polys].max(axis=1)
     fig = plt.figure(figsize=(8, 5.2))
     ax = fig.add_subplot(projection="3d")
     ax.add_collection3d(
@@ -55,27 +55,29 @@ def _shape_figure(structure, field: np.ndarray, title: str, label: str, cmap: st
     faces.set_array(values)
     ax.add_collection3d(faces)
     _view_3d(ax, np.r_[moved[polys].reshape(-1, 3), shell.nodes[polys].reshape(-1, 3) / 1e3])
-    ax.set_title(f"{title} (shown x{scale:.3g})", fontsize=10)
+    faces.set_clim(0.0, max(float(values.max()), 1e-300))
+    ax.set_title(f"{title.format(top=values.max())} (shown x{scale:.3g})", fontsize=10)
     fig.colorbar(faces, ax=ax, shrink=0.7, label=label)
-    data = _png(fig)
+    data = png_bytes(fig)
     plt.close(fig)
     return data
 
 
-def deformed_figure(structure) -> str:
-    """Base64 PNG: the top sheet under the SLS combination with the largest displacement."""
+def deformed_figure(structure) -> bytes:
+    """PNG: the top sheet under the SLS combination with the largest displacement."""
     s = structure.summary["deflection"]
     return _shape_figure(
         structure,
         structure.displacement,
-        f"deformed shape, {s['combination']}: max {s['max_mm']:.3g} mm ({s['ratio']})",
+        f"deformed shape, {s['combination']}: top sheet max {{top:.3g}} mm\n(whole model "
+        f"{s['max_mm']:.3g} mm, {s['ratio']})",
         "|u| [mm]",
         "viridis",
     )
 
 
-def buckling_figure(structure) -> str | None:
-    """Base64 PNG: the first positive buckling mode on the top sheet."""
+def buckling_figure(structure) -> bytes | None:
+    """PNG: the first positive buckling mode on the top sheet."""
     if structure.mode_shape is None:
         return None
     b = structure.summary["buckling"]
@@ -89,40 +91,44 @@ def buckling_figure(structure) -> str | None:
     )
 
 
-def utilisation_figure(structure) -> str:
-    """Base64 PNG, in plan: ULS von Mises utilisation of every top-sheet element, and of every
-    panel (its largest over sheets and ribs)."""
+def utilisation_figure(structure) -> bytes:
+    """PNG, in 3D (a plan squashes the steep sides, where the largest values often sit): ULS
+    von Mises utilisation of every top-sheet element, and of every panel (its largest over
+    sheets and ribs), on one colour scale ending at the largest value drawn."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.collections import PolyCollection
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    from .html import _png
+    from .figures import png_bytes
 
     shell = structure.shell
     polys, elements = _sheet(structure)
-    plan = shell.nodes[polys][..., :2] / 1000.0
+    points = shell.nodes[polys] / 1000.0
     per_panel = np.array(
         [structure.summary["panels"][pid]["utilisation"] for pid in structure.panel_ids]
     )
     top = structure.utilisation[elements]
-    limit = max(float(structure.utilisation.max()), 1e-6)
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
-    for ax, values, title in (
-        (axes[0], top, "top sheet elements"),
-        (axes[1], per_panel[shell.panel[elements, 0]], "panels (largest of sheets and ribs)"),
+    panels = per_panel[shell.panel[elements, 0]]
+    limit = max(float(top.max()), float(panels.max()), 1e-6)
+    fig = plt.figure(figsize=(12, 5.0))
+    for index, (values, title) in enumerate(
+        (
+            (top, "top sheet elements"),
+            (panels, "panels (largest of sheets and ribs)"),
+        ),
+        start=1,
     ):
-        cells = PolyCollection(
-            plan, array=values, cmap="RdYlGn_r", clim=(0, limit), edgecolors="none"
-        )
-        ax.add_collection(cells)
-        ax.set_aspect("equal")
-        ax.autoscale_view()
-        ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]")
-        ax.set_title(f"von Mises / fy, ULS, {title}: max {values.max():.3f}", fontsize=10)
-    fig.colorbar(cells, ax=axes, shrink=0.8, label="utilisation [-]")
-    data = _png(fig)
+        ax = fig.add_subplot(1, 2, index, projection="3d")
+        cells = Poly3DCollection(points, cmap="RdYlGn_r", edgecolor="none")
+        cells.set_array(values)
+        cells.set_clim(0.0, limit)
+        ax.add_collection3d(cells)
+        _view_3d(ax, points.reshape(-1, 3))
+        ax.set_title(f"von Mises / fy, ULS, {title}:\nmax {values.max():.3f}", fontsize=10)
+    fig.colorbar(cells, ax=fig.axes, shrink=0.7, label="utilisation [-]")
+    data = png_bytes(fig)
     plt.close(fig)
     return data
 
@@ -156,16 +162,17 @@ def _welds_row(welds: dict, ok) -> str:
     )
 
 
-def structure_section(result) -> str:
-    """HTML of the structure section: key checks, figures, load cases, per-panel table."""
-    from .html import _fmt, _table
+def structure_blocks(result) -> list:
+    """The structure section as report blocks: key checks, figures, load cases, reactions per
+    support, buckling modes, the per-panel table."""
+    from .blocks import Bullets, Figure, Heading, Table, Text, cell
 
     summary = result.summary.get("structure", {})
     structure = getattr(result, "structure", None)
-    parts = ["<h2>Structure</h2>"]
+    blocks: list = [Heading("Structure", 2, "structure")]
     if not summary.get("analysed"):
-        parts.append(f"<p><b>Not analysed:</b> {html.escape(str(summary.get('reason')))}</p>")
-        return "".join(parts)
+        blocks.append(Text(f"Not analysed: {summary.get('reason')}"))
+        return blocks
     ok = lambda flag: "OK" if flag else "FAILS"
     m, d, s, b = (summary[k] for k in ("mass", "deflection", "stress", "buckling"))
     mesh = summary["mesh"]
@@ -174,43 +181,43 @@ def structure_section(result) -> str:
         (
             "model",
             (
-                f"{mesh['elements']} S8R, {mesh['nodes']} nodes, "
-                f"{mesh['elements_per_side']} per panel side, "
-                f"{summary['supports']['nodes']} {summary['supports'].get('fixity', 'pinned')} "
-                f"anchor nodes in {len(summary['supports'].get('reactions', []))} supports "
+                f"{mesh['elements']} S8R, {mesh['nodes']} nodes, {mesh['elements_per_side']} per "
+                f"panel side, {summary['supports']['nodes']} "
+                f"{summary['supports'].get('fixity', 'pinned')} anchor nodes in "
+                f"{len(summary['supports'].get('reactions', []))} supports "
                 f"({summary['supports']['mode']})"
             ),
         ),
         (
             "mass",
             (
-                f"{m['model_kg']} kg in the model, {m['parts_kg']} kg of parts "
-                f"({m['error']:+.3%}): {ok(m['ok'])}"
+                f"{m['model_kg']} kg in the model, {m['parts_kg']} kg of parts ({m['error']:+.3%}): "
+                f"{ok(m['ok'])}"
             ),
         ),
         ("reactions", f"{reactions}: {ok(summary['checks']['reactions'])}"),
         (
             "deflection (SLS)",
             (
-                f"{d['max_mm']} mm = {d['ratio']} at {d['panel']} "
-                f"({d['combination']}); limit {d['limit_mm']} mm: {ok(d['ok'])}"
+                f"{d['max_mm']} mm = {d['ratio']} at {d['panel']} ({d['combination']}); limit "
+                f"{d['limit_mm']} mm: {ok(d['ok'])}"
             ),
         ),
         (
             "von Mises (ULS)",
             (
-                f"{s['max_von_mises_MPa']} MPa, utilisation {s['utilisation']} at "
-                f"{s['part']} ({s['combination']}): {ok(s['ok'])}"
+                f"{s['max_von_mises_MPa']} MPa, utilisation {s['utilisation']} at {s['part']} "
+                f"({s['combination']}): {ok(s['ok'])}"
             ),
         ),
         (
             "buckling",
             (
-                f"factors {', '.join(f'{f:.3g}' for f in b['factors'])} under "
-                f"{b['combination']}; required {b['required']:.3g}: {ok(b['ok'])}"
+                f"factors {', '.join(f'{f:.3g}' for f in b['factors'])} under {b['combination']}; "
+                f"required {b['required']:.3g}: {ok(b['ok'])}"
             ),
         ),
-        ("stiffeners", mesh["stiffeners"]),
+        ("stiffeners", str(mesh["stiffeners"])),
         ("joint bolts", _bolts_row(summary.get("bolts", {}), ok)),
         ("sheet-to-rib welds", _welds_row(summary.get("welds", {}), ok)),
     ]
@@ -223,63 +230,94 @@ def structure_section(result) -> str:
         )
         verdict = "converged" if convergence["converged"] else "NOT converged (budget)"
         rows.append(("buckling mesh study", f"{steps}: {verdict} within 5 %"))
-    parts.append(_table(rows))
+    blocks.append(Table(("check", "result"), tuple(rows)))
     if summary.get("assumptions"):
-        items = "".join(f"<li>{html.escape(a)}</li>" for a in summary["assumptions"])
-        parts.append(f"<h3>What the check assumes and leaves out</h3><ul>{items}</ul>")
+        blocks += [
+            Heading("What the check assumes and leaves out", 3),
+            Bullets(tuple(summary["assumptions"])),
+        ]
     if structure is not None and structure.shell is not None:
-        for figure, alt in (
-            (deformed_figure, "deformed shape"),
-            (utilisation_figure, "utilisation map"),
-            (buckling_figure, "first buckling mode"),
+        for figure, caption in (
+            (deformed_figure, "Deformed shape (SLS)"),
+            (utilisation_figure, "Utilisation (ULS)"),
+            (buckling_figure, "First buckling mode"),
         ):
-            data = figure(structure)
-            if data is not None:
-                parts.append(f'<img alt="{alt}" src="data:image/png;base64,{data}">')
-    cases = "".join(
-        f"<tr><td>{html.escape(k)}</td><td>{html.escape(v['description'])}</td>"
-        f"<td>{_fmt(v['applied_N'])}</td><td>{_fmt(v['reaction_N'])}</td>"
-        f"<td>{v['error']:.2e}</td></tr>"
-        for k, v in summary["load_cases"].items()
-    )
-    parts.append(
-        "<h3>Load cases</h3><table><tr><th>case</th><th>load</th><th>applied [N]</th>"
-        f"<th>reaction [N]</th><th>error</th></tr>{cases}</table>"
-    )
-    supports = "".join(
-        f"<tr><td>{html.escape(r['support'])}</td><td>{_fmt(r['centroid_mm'])}</td>"
-        + "".join(f"<td>{_fmt(r['cases_kN'].get(c, []))}</td>" for c in ("G",))
-        + f"<td>{_fmt(r['max_kN'])}</td><td>{_fmt(r['min_kN'])}</td>"
-        f"<td>{_fmt(r['max_moment_kNm'])}</td></tr>"
-        for r in summary["supports"].get("reactions", [])
-    )
+            png = figure(structure)
+            if png is not None:
+                blocks.append(Figure(png, caption))
+    blocks += [
+        Heading("Load cases", 3),
+        Table(
+            ("case", "load", "applied [N]", "reaction [N]", "error"),
+            tuple(
+                (
+                    k,
+                    v["description"],
+                    cell(v["applied_N"]),
+                    cell(v["reaction_N"]),
+                    f"{v['error']:.2e}",
+                )
+                for k, v in summary["load_cases"].items()
+            ),
+        ),
+    ]
+    supports = summary["supports"].get("reactions", [])
     if supports:
-        parts.append(
-            "<h3>Reactions per support</h3><p>Every case and combination per support is in "
-            "<code>structure/reactions.csv</code>.</p><table><tr><th>support</th>"
-            "<th>centroid [mm]</th><th>G [kN]</th><th>combinations max [kN]</th>"
-            f"<th>combinations min [kN]</th><th>|moment| max [kN m]</th></tr>{supports}</table>"
-        )
-    modes = "".join(
-        f"<tr><td>{mode['mode']}</td><td>{mode['factor']:.4g}</td>"
-        f"<td>{mode['panel_count']}: {html.escape(', '.join(mode['panels']))}</td>"
-        f"</tr>"
-        for mode in b["modes"]
-    )
-    parts.append(
-        "<h3>Buckling modes</h3><table><tr><th>mode</th><th>factor</th>"
-        f"<th>panels involved</th></tr>{modes}</table>"
-    )
+        blocks += [
+            Heading("Reactions per support", 3),
+            Text("Every case and combination per support is in structure/reactions.csv."),
+            Table(
+                (
+                    "support",
+                    "centroid [mm]",
+                    "G [kN]",
+                    "combinations max [kN]",
+                    "combinations min [kN]",
+                    "|moment| max [kN m]",
+                ),
+                tuple(
+                    (
+                        r["support"],
+                        cell(r["centroid_mm"]),
+                        cell(r["cases_kN"].get("G", [])),
+                        cell(r["max_kN"]),
+                        cell(r["min_kN"]),
+                        cell(r["max_moment_kNm"]),
+                    )
+                    for r in supports
+                ),
+            ),
+        ]
+    blocks += [
+        Heading("Buckling modes", 3),
+        Table(
+            ("mode", "factor", "panels involved"),
+            tuple(
+                (
+                    str(mode["mode"]),
+                    f"{mode['factor']:.4g}",
+                    f"{mode['panel_count']}: {', '.join(mode['panels'])}",
+                )
+                for mode in b["modes"]
+            ),
+        ),
+    ]
     panels = sorted(summary["panels"].items(), key=lambda kv: -kv[1]["utilisation"])
-    body = "".join(
-        f"<tr><td>{pid}</td><td>{rec['utilisation']:.3f}</td>"
-        f"<td>{html.escape(rec['part'])}</td><td>{rec['displacement_mm']:.3g}</td>"
-        f"<td>{', '.join(map(str, rec['buckling_modes']))}</td></tr>"
-        for pid, rec in panels
+    blocks.append(
+        Table(
+            ("panel", "utilisation", "where", "max |u| SLS [mm]", "in buckling modes"),
+            tuple(
+                (
+                    pid,
+                    f"{rec['utilisation']:.3f}",
+                    rec["part"],
+                    f"{rec['displacement_mm']:.3g}",
+                    ", ".join(map(str, rec["buckling_modes"])),
+                )
+                for pid, rec in panels
+            ),
+            sortable=True,
+            caption="Per panel (largest utilisation first)",
+        )
     )
-    parts.append(
-        "<details><summary>Per panel (largest utilisation first)</summary><table><tr>"
-        "<th>panel</th><th>utilisation</th><th>where</th><th>max |u| SLS [mm]</th>"
-        f"<th>in buckling modes</th></tr>{body}</table></details>"
-    )
-    return "".join(parts)
+    return blocks
