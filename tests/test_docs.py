@@ -76,6 +76,7 @@ def test_every_document_is_written_and_listed(run):
         "docs/fasteners.csv",
         "docs/welds.csv",
         "docs/keyplan.pdf",
+        "docs/drawings.pdf",
         "model/assembly.ifc",
     }
     assert set(manifest["documents"]) == names
@@ -310,3 +311,37 @@ def test_docs_command_refuses_a_folder_fabpanel_did_not_write(tmp_path):
     assert result.exit_code == 2
     assert "not a fabpanel output folder" in result.output
     assert [p.name for p in tmp_path.iterdir()] == ["notes.txt"]
+
+
+def test_drawings_have_a_page_per_panel_type_and_true_views(run):
+    from fabpanel.docs.drawings import panel_frame
+    from fabpanel.docs.schedules import panel_types
+    from fabpanel.model import occ, read_step_parts
+    from fabpanel.model.hlr import hidden_line_view
+
+    out, _manifest = run
+    source = DocSource.from_folder(out)
+    types = panel_types(source)
+    assert sum(len(ids) for _, ids in types) == len(source.panels)
+    if shutil.which("pdfinfo"):
+        info = subprocess.run(
+            ["pdfinfo", str(out / "docs" / "drawings.pdf")],
+            capture_output=True, text=True, check=True,
+        ).stdout  # fmt: skip
+        assert f"Pages:           {len(types)}" in info
+        text = subprocess.run(
+            ["pdftotext", str(out / "docs" / "drawings.pdf"), "-"],
+            capture_output=True, text=True, check=True,
+        ).stdout  # fmt: skip
+        assert all(f"panel type {name}" in text for name, _ in types)
+    # the top view of a panel, seen along its normal, spans its side 0 (plus the ribs)
+    panel = source.panels[0]
+    centre, normal, x_axis = panel_frame(panel, source.origin)
+    shapes = read_step_parts(out / "model" / "assembly.step")
+    breps = [occ.to_brep(s) for name, s in shapes.items() if name.startswith(panel.id + "-")]
+    visible, hidden, _ = hidden_line_view(breps, centre, normal, x_axis)
+    points = np.concatenate(visible)
+    corners = panel.corners - source.origin
+    side = np.linalg.norm(corners[1] - corners[0])
+    assert np.ptp(points[:, 0]) == pytest.approx(side, abs=20.0)
+    assert hidden  # the ribs and stiffeners under the top sheet

@@ -1,5 +1,6 @@
-"""The shop documents: schedules (``docs/*.csv``), the key plan (``docs/keyplan.pdf``) and the
-assembly as IFC (``model/assembly.ifc``), made from the run's manifest and model.
+"""The shop documents: schedules (``docs/*.csv``), the key plan (``docs/keyplan.pdf``), the
+assembly drawings (``docs/drawings.pdf``) and the assembly as IFC (``model/assembly.ifc``),
+made from the run's manifest and model.
 
 ``write_docs`` is called by the pipeline after the cut stage, and by ``fabpanel docs
 OUTPUT_DIR`` on a finished output folder (the solids then come from ``model/assembly.step``).
@@ -12,6 +13,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from .bolts import joint_bolts
+from .drawings import write_drawings
 from .ifc import IFC_RULE, write_ifc
 from .keyplan import write_keyplan
 from .panels import panel_schedule
@@ -47,7 +49,8 @@ def write_docs(
     workers: int = 1,
 ) -> list[Path]:
     """Write the documents of ``source`` under the output ``folder`` (``docs/`` and, when the
-    parts' solids ``breps`` are given, ``model/assembly.ifc``); the files written."""
+    parts' solids ``breps`` are given, the drawings and ``model/assembly.ifc``); the files
+    written."""
     from ..model.export import tessellate_breps
 
     folder = Path(folder)
@@ -55,6 +58,7 @@ def write_docs(
     written = [write_schedule(s, folder / "docs") for s in schedules(source)]
     written.append(write_keyplan(source, folder / "docs" / "keyplan.pdf"))
     if breps is not None:
+        written.append(write_drawings(source, breps, folder / "docs" / "drawings.pdf"))
         named = [(p.id, breps[p.id]) for p in source.parts if p.id in breps]
         meshes = dict(zip((n for n, _ in named), tessellate_breps(named, IFC_RULE, workers)))
         (folder / "model").mkdir(exist_ok=True)

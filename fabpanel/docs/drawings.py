@@ -1,0 +1,215 @@
+"""Assembly drawings (``docs/drawings.pdf``): one A3 page per panel type, vector lines.
+
+Each page shows the type's first panel projected from its solids with hidden lines (OCCT's
+hidden-line removal, :mod:`fabpanel.model.hlr`): a top view looking onto the outer face, side 0
+along the sheet's x axis, and a section view along side 0 showing the sandwich's depth. Part
+marks sit at the parts' centres, bolts are numbered crosses; beside the views, the parts list
+(mark, kind, thickness, mass), each rib's tilt against the panel normal (0° = square to the
+panel, the bevel the rib's edges are cut at), the bolts' positions in the panel's frame, and the
+joint detail (section across two ribs, from the sandwich build-up: sheet set-back, fillet
+welds, erection gap, bolt). Title block with project, panel type, panels of the type,
+revision and date.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from datetime import date
+from pathlib import Path
+
+import numpy as np
+
+from .keyplan import A3, MARGIN
+from .schedules import panel_types
+from .source import DocSource, PanelDoc, PartDoc
+
+#: rows of a table printed on a page before "... and n more"
+TABLE_ROWS = 24
+
+
+def panel_frame(panel: PanelDoc, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A panel's centre (local frame, mm), outward normal and side-0 direction (unit)."""
+    corners = panel.corners - origin
+    normal = np.cross(corners[2] - corners[0], corners[3] - corners[1])
+    normal /= np.linalg.norm(normal)
+    side = corners[1] - corners[0]
+    side -= normal * (side @ normal)
+    return corners.mean(axis=0), normal, side / np.linalg.norm(side)
+
+
+def rib_tilt(normal: np.ndarray | None, panel_normal: np.ndarray) -> float | None:
+    """The angle between a rib's plane and the panel normal, degrees (0: square to the panel)."""
+    if normal is None:
+        return None
+    return float(np.degrees(np.arcsin(min(abs(float(normal @ panel_normal)), 1.0))))
+
+
+def write_drawings(source: DocSource, breps: Mapping[str, bytes], path: str | Path) -> Path:
+    """One page per panel type (module docstring) into the PDF ``path``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    path = Path(path)
+    with PdfPages(path, metadata={"CreationDate": None, "Creator": "fabpanel"}) as pages:
+        for name, panel_ids in panel_types(source):
+            panel = next(p for p in source.panels if p.id == panel_ids[0])
+            fig = _page(source, breps, name, panel, panel_ids)
+            pages.savefig(fig)
+            plt.close(fig)
+    return path
+
+
+def _page(source: DocSource, breps: Mapping[str, bytes], name: str, panel: PanelDoc, ids):
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
+
+    from ..model.hlr import hidden_line_view, plate_normal
+
+    parts = source.parts_of(panel.id)
+    centre, normal, x_axis = panel_frame(panel, source.origin)
+    y_axis = np.cross(normal, x_axis)
+    solids = [breps[p.id] for p in parts if p.id in breps]
+    inch = 25.4
+    fig = plt.figure(figsize=(A3[0] / inch, A3[1] / inch))
+    top = fig.add_axes((0.03, 0.30, 0.50, 0.64))
+    side = fig.add_axes((0.03, 0.12, 0.50, 0.15))
+    views = (
+        (top, normal, x_axis, "Top view (outside), side 0 along x"),
+        (side, -y_axis, x_axis, "Section view along side 0 (outer face up)"),
+    )
+    placed = [p for p in parts if p.centroid is not None]
+    bolts = [(p.id.split("-", 1)[1], c) for p in parts for c in p.bolt_centres]
+    markers = np.array([p.centroid for p in placed] + [c for _, c in bolts]).reshape(-1, 3)
+    for ax, view, right, title in views:
+        visible, hidden, projected = hidden_line_view(
+            solids, centre, view, right, np.vstack([centre, markers - source.origin])
+        )
+        # coordinates from the panel's centre
+        shift, projected = projected[0], projected[1:] - projected[0]
+        ax.add_collection(
+            LineCollection(
+                [line - shift for line in hidden],
+                colors="0.55",
+                linewidths=0.25,
+                linestyles=(0, (3, 2)),
+            )
+        )
+        ax.add_collection(
+            LineCollection([line - shift for line in visible], colors="k", linewidths=0.45)
+        )
+        ax.autoscale_view()
+        ax.set_aspect("equal")
+        ax.set_title(title, fontsize=8, loc="left")
+        ax.tick_params(labelsize=6)
+        ax.set_xlabel("mm", fontsize=6)
+        if ax is top:
+            _marks(ax, [p.mark for p in placed], projected[: len(placed)])
+            _bolt_marks(ax, projected[len(placed) :])
+    bolt_rows = [
+        (rib, *(float((c - source.origin - centre) @ a) for a in (x_axis, y_axis, normal)))
+        for rib, c in bolts
+    ]
+    tilts = {
+        p.id: rib_tilt(plate_normal(breps[p.id]), normal)
+        for p in parts
+        if p.kind == "rib" and p.id in breps
+    }
+    _tables(fig, parts, tilts, bolt_rows)
+    _joint_detail(fig.add_axes((0.57, 0.12, 0.40, 0.22)), source)
+    _title_block(fig, source, name, ids, parts)
+    return fig
+
+
+def _marks(ax, marks: list[str], points: np.ndarray) -> None:
+    for mark, (x, y) in zip(marks, points):
+        ax.annotate(
+            mark,
+            (x, y),
+            fontsize=6.5,
+            ha="center",
+            va="center",
+            color="#0a3d91",
+            bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "#0a3d91", "lw": 0.4},
+        )
+
+
+def _bolt_marks(ax, points: np.ndarray) -> None:
+    """Numbered crosses at the bolts (the numbers of the bolts table)."""
+    for index, (x, y) in enumerate(points, start=1):
+        ax.plot([x], [y], marker="+", color="#b3261e", markersize=5, mew=0.6)
+        ax.annotate(str(index), (x, y), xytext=(2, 2), textcoords="offset points", fontsize=4.5,
+                    color="#b3261e")  # fmt: skip
+
+
+def _tables(fig, parts: list[PartDoc], tilts: dict, bolts: list) -> None:
+    lines = ["PARTS (mark  kind  t  mass)"]
+    for part in parts:
+        lines.append(
+            f"{part.mark:<6} {part.kind:<12} {part.thickness:4.0f} mm {part.mass:7.2f} kg"
+            + (f"  tilt {tilts[part.id]:.2f}°" if tilts.get(part.id) is not None else "")
+        )
+    lines += ["", f"BOLTS ({len(bolts)}; x along side 0, z outward, mm)"]
+    for index, (rib, x, y, z) in enumerate(bolts[:TABLE_ROWS], start=1):
+        lines.append(f"{index:>3} {rib:<6} {x:8.1f} {y:8.1f} {z:7.1f}")
+    if len(bolts) > TABLE_ROWS:
+        lines.append(f"... and {len(bolts) - TABLE_ROWS} more (docs/fasteners.csv, the IFC)")
+    fig.text(0.57, 0.94, "\n".join(lines), fontsize=5.6, family="DejaVu Sans Mono", va="top")
+
+
+def _joint_detail(ax, source: DocSource) -> None:
+    """Section across a joint: two ribs back to back (gap), the sheets set back, fillet welds,
+    the bolt, drawn to scale from the sandwich build-up."""
+    from matplotlib.patches import Polygon, Rectangle
+
+    from ..buildup import Buildup
+
+    b = Buildup.of(source.job)
+    t_rib, gap, h = b.t_rib, b.welds.erection_gap, b.rib_height
+    setback, leg = b.welds.setback, b.welds.leg
+    reach = 6.0 * t_rib
+    for sign in (-1, 1):
+        inner = sign * gap / 2.0
+        outer = inner + sign * t_rib
+        x0, x1 = sorted((inner, outer))
+        ax.add_patch(Rectangle((x0, 0.0), x1 - x0, h, fc="#d9dde3", ec="k", lw=0.6))
+        # sheets from the set-back outwards, on top (t_top) and under (t_bot) the rib
+        edge = inner + sign * setback
+        far = inner + sign * reach
+        for y, t in ((h, b.t_top), (-b.t_bot, b.t_bot)):
+            if t > 0:
+                lo, hi = sorted((edge, far))
+                ax.add_patch(Rectangle((lo, y), hi - lo, t, fc="#bfc7d1", ec="k", lw=0.6))
+        # the fillet welds in the corner between sheet edge and rib face
+        for y, up in ((h, 1), (0.0, -1)):
+            tri = [(edge, y), (edge - sign * leg, y), (edge, y + up * leg)]
+            ax.add_patch(Polygon(tri, closed=True, fc="#e07a1f", ec="none"))
+    bolt = h / 2.0
+    shank = t_rib * 2 + gap
+    ax.add_patch(Rectangle((-shank / 2 - 4, bolt - 6), shank + 8, 12, fc="none", ec="#b3261e",
+                           lw=0.6, ls="--"))  # fmt: skip
+    ax.set_aspect("equal")
+    ax.set_xlim(-reach - 5, reach + 5)
+    ax.set_ylim(-b.t_bot - 10, h + b.t_top + 10)
+    ax.set_title(
+        f"Joint detail: ribs {t_rib:g} mm, gap {gap:g} mm, sheets set back {setback:g} mm, "
+        f"fillet a = {b.welds.throat:.1f} mm (leg {leg:.1f}), bolt at mid-height",
+        fontsize=6.5,
+        loc="left",
+    )
+    ax.tick_params(labelsize=5)
+
+
+def _title_block(fig, source: DocSource, name: str, ids, parts: list[PartDoc]) -> None:
+    mass = sum(p.mass for p in parts)
+    listed = ", ".join(ids[:12]) + (f" and {len(ids) - 12} more" if len(ids) > 12 else "")
+    text = (
+        f"Project: {source.job.docs.project or source.name}    Drawing: panel type {name} "
+        f"({len(ids)} panel(s): {listed})    Mass {mass:.1f} kg    Revision "
+        f"{source.job.docs.revision}    {date.today().isoformat()}    fabpanel "
+        f"{source.fabpanel_version}    A3, dimensions in mm, not to scale"
+    )
+    fig.text(MARGIN / A3[0], 0.03, text, fontsize=7, va="bottom",
+             bbox={"boxstyle": "square,pad=0.6", "fc": "white", "ec": "k", "lw": 0.8})  # fmt: skip

@@ -1,0 +1,117 @@
+"""Hidden-line views of solids for drawings (OCCT's polygonal hidden-line removal).
+
+``HLRBRep_PolyAlgo`` works on the solids' triangulations: a panel's ten parts project in about
+0.2 s (meshing included), where the exact ``HLRBRep_Algo`` takes 1.7 s; at a drawing's scale the
+0.3 mm chord of the mesh does not show.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
+
+from . import occ
+
+#: triangulation of the solids before the projection: linear deflection, mm, and angular, rad
+HLR_DEFLECTION = 0.3
+HLR_ANGLE = 0.3
+
+
+def hidden_line_view(
+    breps: Iterable[bytes],
+    origin: np.ndarray,
+    view: np.ndarray,
+    x_axis: np.ndarray,
+    points: np.ndarray | None = None,
+) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray]:
+    """The solids seen from ``origin + view`` looking along ``-view``, with ``x_axis`` to the
+    right: visible and hidden edges as (n, 2) polylines in the view's plane, mm (sharp edges
+    and silhouettes), and ``points (k, 3)`` projected into the same plane (k, 2)."""
+    from OCP.BRep import BRep_Builder
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.HLRAlgo import HLRAlgo_Projector
+    from OCP.HLRBRep import HLRBRep_PolyAlgo, HLRBRep_PolyHLRToShape
+    from OCP.TopoDS import TopoDS_Compound
+
+    builder = BRep_Builder()
+    compound = TopoDS_Compound()
+    builder.MakeCompound(compound)
+    for brep in breps:
+        builder.Add(compound, occ.from_brep(brep))
+    BRepMesh_IncrementalMesh(compound, HLR_DEFLECTION, False, HLR_ANGLE, True)
+    algo = HLRBRep_PolyAlgo()
+    algo.Load(compound)
+    frame = gp_Ax2(
+        gp_Pnt(*map(float, origin)), gp_Dir(*map(float, view)), gp_Dir(*map(float, x_axis))
+    )
+    projector = HLRAlgo_Projector(frame)
+    algo.Projector(projector)
+    algo.Update()
+    shapes = HLRBRep_PolyHLRToShape()
+    shapes.Update(algo)
+    visible = _polylines(shapes.VCompound()) + _polylines(shapes.OutLineVCompound())
+    hidden = _polylines(shapes.HCompound()) + _polylines(shapes.OutLineHCompound())
+    return visible, hidden, _projected(projector, points)
+
+
+def _projected(projector, points: np.ndarray | None) -> np.ndarray:
+    """Points through the view's projector: the same plane coordinates as the edges."""
+    from OCP.gp import gp_Pnt2d
+
+    if points is None or not len(points):
+        return np.zeros((0, 2))
+    out = []
+    for point in np.asarray(points, dtype=float):
+        flat = gp_Pnt2d()
+        projector.Project(gp_Pnt(*map(float, point)), flat)
+        out.append((flat.X(), flat.Y()))
+    return np.array(out)
+
+
+def _polylines(shape) -> list[np.ndarray]:
+    """Each edge of ``shape`` as an (n, 2) polyline (x, y of the view's plane)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.GeomAbs import GeomAbs_Line
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    if shape is None or shape.IsNull():
+        return []
+    lines = []
+    explorer = TopExp_Explorer(shape, TopAbs_EDGE)
+    while explorer.More():
+        curve = BRepAdaptor_Curve(TopoDS.Edge(explorer.Current()))
+        count = 2 if curve.GetType() == GeomAbs_Line else 12
+        params = np.linspace(curve.FirstParameter(), curve.LastParameter(), count)
+        points = [curve.Value(float(t)) for t in params]
+        lines.append(np.array([(p.X(), p.Y()) for p in points]))
+        explorer.Next()
+    return lines
+
+
+def plate_normal(brep: bytes) -> np.ndarray | None:
+    """The unit normal of a flat plate's largest planar face (None: no planar face)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GeomAbs import GeomAbs_Plane
+    from OCP.GProp import GProp_GProps
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    best, normal = 0.0, None
+    explorer = TopExp_Explorer(occ.from_brep(brep), TopAbs_FACE)
+    while explorer.More():
+        face = TopoDS.Face(explorer.Current())
+        surface = BRepAdaptor_Surface(face)
+        if surface.GetType() == GeomAbs_Plane:
+            props = GProp_GProps()
+            BRepGProp.SurfaceProperties_s(face, props)
+            if props.Mass() > best:
+                axis = surface.Plane().Axis().Direction()
+                best, normal = props.Mass(), np.array([axis.X(), axis.Y(), axis.Z()])
+        explorer.Next()
+    return normal
