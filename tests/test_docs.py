@@ -48,14 +48,19 @@ def rows(out: Path, name: str) -> list[dict]:
 
 
 def ifc_meshes(out: Path):
+    """The IFC re-read, and every plate triangulated by ifcopenshell's own geometry kernel
+    (whatever its representation: extruded profile or triangulated face set), mm."""
     import ifcopenshell
+    import ifcopenshell.geom
 
     model = ifcopenshell.open(str(out / "model" / "assembly.ifc"))
+    settings = ifcopenshell.geom.settings()
+    settings.set("use-world-coords", True)
     meshes = {}
     for plate in model.by_type("IfcPlate"):
-        faces = plate.Representation.Representations[0].Items[0]
-        vertices = np.array(faces.Coordinates.CoordList)
-        meshes[plate.Name] = (vertices, np.array(faces.CoordIndex) - 1)
+        shape = ifcopenshell.geom.create_shape(settings, plate)
+        vertices = np.array(shape.geometry.verts).reshape(-1, 3) * 1000.0  # m -> mm
+        meshes[plate.Name] = (vertices, np.array(shape.geometry.faces).reshape(-1, 3))
     return model, meshes
 
 
@@ -100,6 +105,10 @@ def test_ifc_holds_every_part_with_its_volume_mark_and_panel(run):
         assert element.get_material(plate).Name == part["material"]
         volume, _ = volume_and_centroid(*meshes[plate.Name])
         assert volume == pytest.approx(part["volume_mm3"], rel=5e-3), plate.Name
+        representation = plate.Representation.Representations[0].RepresentationType
+        assert representation == (
+            "Tessellation" if part["kind"].startswith("sheet") else "SweptSolid"
+        )
         qto = element.get_psets(plate)["Qto_PlateBaseQuantities"]
         assert qto["Width"] == part["thickness_mm"]
         assert qto["NetWeight"] == pytest.approx(part["mass_kg"])

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from .bolts import joint_bolts
 from .drawings import write_drawings
-from .ifc import IFC_RULE, write_ifc
+from .ifc import solid_geometry, write_ifc
 from .keyplan import write_keyplan
 from .panels import panel_schedule
 from .schedules import Schedule, fastener_schedule, rolling_schedule, weld_schedule
@@ -51,21 +51,31 @@ def write_docs(
     """Write the documents of ``source`` under the output ``folder`` (``docs/`` and, when the
     parts' solids ``breps`` are given, the drawings and ``model/assembly.ifc``); the files
     written."""
-    from ..model.export import tessellate_breps
-
     folder = Path(folder)
     (folder / "docs").mkdir(exist_ok=True)
     written = [write_schedule(s, folder / "docs") for s in schedules(source)]
     written.append(write_keyplan(source, folder / "docs" / "keyplan.pdf"))
     if breps is not None:
         written.append(write_drawings(source, breps, folder / "docs" / "drawings.pdf"))
-        named = [(p.id, breps[p.id]) for p in source.parts if p.id in breps]
-        meshes = dict(zip((n for n, _ in named), tessellate_breps(named, IFC_RULE, workers)))
+        items = [(p.id, breps[p.id], p.thickness) for p in source.parts if p.id in breps]
+        geometry = dict(zip((n for n, _, _ in items), _in_workers(solid_geometry, items, workers)))
         (folder / "model").mkdir(exist_ok=True)
         written.append(
-            write_ifc(source, meshes, joint_bolts(source), folder / "model" / "assembly.ifc")
+            write_ifc(source, geometry, joint_bolts(source), folder / "model" / "assembly.ifc")
         )
     return written
+
+
+def _in_workers(work, items: list, workers: int) -> list:
+    """``work(chunk)`` over ``items`` in ``workers`` fresh worker processes, results in order."""
+    if workers <= 1 or len(items) < 16:
+        return work(items)
+    from ..parallel import worker_pool
+
+    size = -(-len(items) // (4 * workers))
+    chunks = [items[i : i + size] for i in range(0, len(items), size)]
+    with worker_pool(workers, fresh=True) as pool:
+        return [found for chunk in pool.map(work, chunks) for found in chunk]
 
 
 def docs_from_folder(folder: str | Path, workers: int = 1) -> list[Path]:

@@ -2,8 +2,10 @@
 
 Structure: IfcProject > IfcSite > IfcBuilding > IfcBuildingStorey, which contains one
 IfcElementAssembly per panel (Name the panel id) and the joints' IfcMechanicalFastener bolts;
-each assembly aggregates its IfcPlate parts. A plate carries its solid as a closed
-IfcTriangulatedFaceSet (OCCT's tessellation of the exact solid, deflection ``IFC_RULE``), its
+each assembly aggregates its IfcPlate parts. A flat plate (rib, stiffener, packing) carries its
+solid exactly, as its profile extruded by its thickness (IfcExtrudedAreaSolid of an
+IfcArbitraryProfileDefWithVoids, holes included; :mod:`fabpanel.model.profiles`); a rolled
+sheet as a closed IfcTriangulatedFaceSet (OCCT's tessellation, deflection ``IFC_RULE``). Its
 material (IfcMaterial, category steel), Tag = part mark, ObjectType = part kind, the quantity
 set Qto_PlateBaseQuantities (thickness as Width, net volume, net weight) and the property set
 FABPANEL_Part (mark, kind, thickness, mass, forming). A bolt is a cylinder of its nominal
@@ -34,12 +36,13 @@ PLATE_TYPE = {"sheet-top": "SHEET", "sheet-bottom": "SHEET"}
 
 def write_ifc(
     source: DocSource,
-    meshes: Mapping[str, tuple[np.ndarray, np.ndarray]],
+    meshes: Mapping[str, object],
     bolts: Bolts,
     path: str | Path,
 ) -> Path:
-    """Write ``path``: every part of ``source`` with its mesh (local frame vertices, mm, and
-    triangles) from ``meshes``, and the joint ``bolts`` (module docstring)."""
+    """Write ``path``: every part of ``source`` with its geometry from ``meshes`` (a
+    ``PrismProfile`` or (vertices, triangles), local frame, mm; :func:`solid_geometry`), and
+    the joint ``bolts`` (module docstring)."""
     import ifcopenshell
     import ifcopenshell.api.context
     import ifcopenshell.api.material
@@ -163,12 +166,48 @@ def _perpendicular(axis: np.ndarray) -> np.ndarray:
     return ref / np.linalg.norm(ref)
 
 
+def solid_geometry(items: list[tuple[str, bytes, float]]) -> list:
+    """Each part's IFC geometry (run in worker processes): a ``PrismProfile`` for a flat plate,
+    else its tessellation (vertices, triangles) by ``IFC_RULE``."""
+    from ..model.export import tessellate_breps
+    from ..model.profiles import prism_profile
+
+    found: list = []
+    for name, brep, thickness in items:
+        profile = prism_profile(brep, thickness)
+        found.append(
+            profile if profile is not None else tessellate_breps([(name, brep)], IFC_RULE)[0]
+        )
+    return found
+
+
+def _prism_solid(model, profile, origin: np.ndarray):
+    """An IfcExtrudedAreaSolid of a flat plate's profile (design frame: + ``origin``)."""
+
+    def curve(loop: np.ndarray):
+        closed = np.vstack([loop, loop[:1]])
+        points = model.createIfcCartesianPointList2D(np.round(closed, IFC_DECIMALS).tolist())
+        return model.createIfcIndexedPolyCurve(points, None, False)
+
+    if profile.inner:
+        area = model.createIfcArbitraryProfileDefWithVoids(
+            "AREA", None, curve(profile.outer), [curve(loop) for loop in profile.inner]
+        )
+    else:
+        area = model.createIfcArbitraryClosedProfileDef("AREA", None, curve(profile.outer))
+    return model.createIfcExtrudedAreaSolid(
+        area,
+        _placement(model, profile.origin + origin, profile.z_axis, profile.x_axis),
+        model.createIfcDirection([0.0, 0.0, 1.0]),
+        float(profile.depth),
+    )
+
+
 def _plate(model, body, part, mesh, origin: np.ndarray, placement):
     import ifcopenshell.api.pset
     import ifcopenshell.api.root
 
     api = ifcopenshell.api
-    vertices, triangles = mesh
     plate = api.root.create_entity(
         model,
         ifc_class="IfcPlate",
@@ -178,13 +217,18 @@ def _plate(model, body, part, mesh, origin: np.ndarray, placement):
     plate.Tag = part.mark
     plate.ObjectType = part.kind
     plate.ObjectPlacement = model.createIfcLocalPlacement(None, placement)
-    points = model.createIfcCartesianPointList3D(
-        np.round(np.asarray(vertices, dtype=float) + origin, IFC_DECIMALS).tolist()
-    )
-    faces = model.createIfcTriangulatedFaceSet(
-        points, None, True, (np.asarray(triangles, dtype=int) + 1).tolist(), None
-    )
-    shape = model.createIfcShapeRepresentation(body, "Body", "Tessellation", [faces])
+    if isinstance(mesh, tuple):
+        vertices, triangles = mesh
+        points = model.createIfcCartesianPointList3D(
+            np.round(np.asarray(vertices, dtype=float) + origin, IFC_DECIMALS).tolist()
+        )
+        faces = model.createIfcTriangulatedFaceSet(
+            points, None, True, (np.asarray(triangles, dtype=int) + 1).tolist(), None
+        )
+        shape = model.createIfcShapeRepresentation(body, "Body", "Tessellation", [faces])
+    else:
+        solid = _prism_solid(model, mesh, origin)
+        shape = model.createIfcShapeRepresentation(body, "Body", "SweptSolid", [solid])
     plate.Representation = model.createIfcProductDefinitionShape(None, None, [shape])
     quantities = api.pset.add_qto(model, product=plate, name="Qto_PlateBaseQuantities")
     api.pset.edit_qto(
