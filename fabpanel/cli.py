@@ -1,4 +1,4 @@
-"""Command line: ``fabpanel export | init | inspect | docs | demo``.
+"""Command line: ``fabpanel export | init | inspect | docs | serve | demo``.
 
 Exit codes: 0 success, 2 bad input or job (one line on stderr: what, where, how to fix),
 1 internal error. ``--debug`` shows tracebacks.
@@ -412,6 +412,33 @@ def docs(folder, jobs, debug):
         for path in written:
             click.echo(f"wrote {path}", err=True)
     except (Exception, KeyboardInterrupt) as err:  # noqa: BLE001
+        _fail(err, debug)
+
+
+@main.command()
+@click.option("--host", default="localhost", show_default=True, help="Address to listen on.")
+@click.option("--port", type=click.IntRange(1, 65535), default=5000, show_default=True)
+@click.option("--debug", is_flag=True, help="Show tracebacks.")
+def serve(host, port, debug):
+    """Run the Grasshopper Hops endpoint: inspect, panelize, develop and export as Hops
+    components (point a Hops component at http://HOST:PORT/panelize, ...)."""
+    try:
+        from .serve import server
+
+        _quiet_logging(debug)
+        httpd = server(host, port)
+        click.echo(
+            f"fabpanel Hops endpoint on http://{host}:{port}/ (components /inspect, /panelize, "
+            "/develop, /export); Ctrl-C stops it",
+            err=True,
+        )
+        try:
+            httpd.serve_forever()
+        except KeyboardInterrupt:
+            click.echo("stopped", err=True)
+        finally:
+            httpd.server_close()
+    except Exception as err:  # noqa: BLE001
         _fail(err, debug)
 
 

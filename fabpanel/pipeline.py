@@ -421,12 +421,17 @@ def _write_outputs(
         if job.output.step and job.output.step_per_panel:
             (folder / "model" / "panels").mkdir(parents=True)
             note(write_panel_steps(result.model, folder / "model" / "panels"), "model/panels")
+        meshes = None
+        if job.output.glb or job.output.rhino:
+            from .model.export import preview_meshes
+
+            meshes = preview_meshes(result.model, workers)
         if job.output.glb:
-            write_glb(result.model, folder / "model" / "preview.glb", workers)
+            write_glb(result.model, folder / "model" / "preview.glb", workers, meshes)
         if job.output.rhino:
             from .model.rhino import write_3dm
 
-            write_3dm(result.model, folder / "model" / "design.3dm")
+            write_3dm(result.model, folder / "model" / "design.3dm", meshes)
     if result.flat is not None and result.nests is not None and job.output.dxf:
         (folder / "cut" / "parts").mkdir(parents=True)
         (folder / "cut" / "nests").mkdir(parents=True)

@@ -374,11 +374,16 @@ def test_kernel_error_names_the_part():
 def test_design_3dm_holds_exact_panel_surfaces_and_layers(model, developed, tmp_path):
     import rhino3dm
 
-    path = write_3dm(model, tmp_path / "design.3dm")
+    from fabpanel.model.export import preview_meshes
+
+    path = write_3dm(model, tmp_path / "design.3dm", preview_meshes(model))
     doc = rhino3dm.File3dm.Read(str(path))
     assert doc.Settings.ModelUnitSystem == rhino3dm.UnitSystem.Millimeters
     layers = [layer.Name for layer in doc.Layers]
-    assert layers == ["panels", "outlines", "ribs", "stiffeners", "packing", "labels"]
+    assert layers == [
+        "panels", "outlines", "ribs", "stiffeners", "packing", "labels", "solids-sheets",
+        "solids-ribs", "solids-stiffeners", "solids-packing",
+    ]  # fmt: skip
     by_layer = {}
     for obj in doc.Objects:
         by_layer.setdefault(layers[obj.Attributes.LayerIndex], []).append(obj)
@@ -398,6 +403,17 @@ def test_design_3dm_holds_exact_panel_surfaces_and_layers(model, developed, tmp_
                 [point.X, point.Y, point.Z], developed.samples[p, i, j], atol=1e-6
             )
     assert sorted(dot.Geometry.Text for dot in by_layer["labels"]) == list(developed.panel_ids)
+    # every part's solid as a closed mesh of its volume, on its kind's layer
+    volumes = {p.id: p.volume for p in model.parts}
+    solids = [o for name, objs in by_layer.items() if name.startswith("solids") for o in objs]
+    assert sorted(o.Attributes.Name for o in solids) == sorted(volumes)
+    for obj in solids:
+        mesh = obj.Geometry
+        vertices = np.array([[v.X, v.Y, v.Z] for v in mesh.Vertices.ToPoint3dArray()])
+        faces = np.array([list(mesh.Faces[i])[:3] for i in range(mesh.Faces.Count)])
+        a, b, c = (vertices[faces[:, i]] for i in range(3))
+        volume = abs(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6.0
+        assert volume == pytest.approx(volumes[obj.Attributes.Name], rel=0.02)
 
 
 def test_stiffeners_too_long_for_the_sides_are_skipped_and_reported(developed, job):

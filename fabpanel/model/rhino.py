@@ -8,6 +8,8 @@ Layers (millimetres):
 ``ribs``          every rib's flat outline in its plane, in place
 ``stiffeners``    every corner stiffener's outline, in place
 ``labels``        a text dot with the panel id at each panel's centre
+``solids-sheets``, ``solids-ribs``, ``solids-stiffeners``, ``solids-packing``
+                  every part's solid as a mesh (the preview's tessellation), named by part id
 
 Every panel of the layout is drawn, also one the build stage could not build (its outline and
 label; its surface too unless its developed grid admits no B-spline, which is then logged).
@@ -37,6 +39,18 @@ LAYERS = {
     "stiffeners": (204, 51, 38, 255),
     "packing": (77, 115, 204, 255),
     "labels": (20, 60, 160, 255),
+    "solids-sheets": (184, 189, 199, 255),
+    "solids-ribs": (230, 140, 38, 255),
+    "solids-stiffeners": (204, 51, 38, 255),
+    "solids-packing": (77, 115, 204, 255),
+}
+#: the solids' layer by part kind
+SOLID_LAYER = {
+    "sheet-top": "solids-sheets",
+    "sheet-bottom": "solids-sheets",
+    "rib": "solids-ribs",
+    "stiffener": "solids-stiffeners",
+    "packing": "solids-packing",
 }
 
 
@@ -68,8 +82,13 @@ def nurbs_surface(surface, origin: np.ndarray | None = None):
     return result
 
 
-def write_3dm(model: Model, path: str | Path) -> Path:
-    """Write ``design.3dm`` (see the module docstring)."""
+def write_3dm(
+    model: Model,
+    path: str | Path,
+    meshes: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
+) -> Path:
+    """Write ``design.3dm`` (see the module docstring); ``meshes`` (part id -> vertices mm in
+    the local frame, triangles) adds the solids."""
     import rhino3dm
 
     path = Path(path)
@@ -126,6 +145,27 @@ def write_3dm(model: Model, path: str | Path) -> Path:
         )[:, :3]
         layer_name = {"rib": "ribs", "packing": "packing"}.get(part.kind, "stiffeners")
         doc.Objects.AddPolyline(points(np.r_[world, world[:1]]), attributes(layer_name, part.id))
+    for part in model.parts:
+        if meshes is None or part.id not in meshes:
+            continue
+        vertices, triangles = meshes[part.id]
+        doc.Objects.AddMesh(
+            _mesh(np.asarray(vertices) + origin, triangles),  # type: ignore[call-arg]
+            attributes(SOLID_LAYER.get(part.kind, "solids-stiffeners"), part.id),
+        )
     if not doc.Write(str(path), 8):
         raise KernelError(f"writing {path} failed")
     return path
+
+
+def _mesh(vertices: np.ndarray, triangles: np.ndarray):
+    """A ``rhino3dm.Mesh`` of triangles over ``vertices`` (mm)."""
+    import rhino3dm
+
+    mesh = rhino3dm.Mesh()
+    for x, y, z in vertices.tolist():
+        mesh.Vertices.Add(x, y, z)
+    for a, b, c in np.asarray(triangles, dtype=int).tolist():
+        mesh.Faces.AddFace(a, b, c)
+    mesh.Normals.ComputeNormals()
+    return mesh
