@@ -204,7 +204,6 @@ def _prism_solid(model, profile, origin: np.ndarray):
 
 
 def _plate(model, body, part, mesh, origin: np.ndarray, placement):
-    import ifcopenshell.api.pset
     import ifcopenshell.api.root
 
     api = ifcopenshell.api
@@ -230,22 +229,22 @@ def _plate(model, body, part, mesh, origin: np.ndarray, placement):
         solid = _prism_solid(model, mesh, origin)
         shape = model.createIfcShapeRepresentation(body, "Body", "SweptSolid", [solid])
     plate.Representation = model.createIfcProductDefinitionShape(None, None, [shape])
-    quantities = api.pset.add_qto(model, product=plate, name="Qto_PlateBaseQuantities")
-    api.pset.edit_qto(
+    _property_set(
         model,
-        qto=quantities,
-        properties={
+        plate,
+        "Qto_PlateBaseQuantities",
+        {
             "Width": float(part.thickness),
             "NetArea": part.net_area / 1e6,
             "NetVolume": part.volume / 1e9,
             "NetWeight": part.mass,
         },
     )
-    properties = api.pset.add_pset(model, product=plate, name="FABPANEL_Part")
-    api.pset.edit_pset(
+    _property_set(
         model,
-        pset=properties,
-        properties={
+        plate,
+        "FABPANEL_Part",
+        {
             "Mark": part.mark,
             "Kind": part.kind,
             "Panel": part.panel,
@@ -257,8 +256,20 @@ def _plate(model, body, part, mesh, origin: np.ndarray, placement):
     return plate
 
 
-def _fasteners(model, body, source: DocSource, bolts: Bolts, placement) -> list:
+def _property_set(model, product, name: str, values: dict) -> None:
+    """A property set (or, for a ``Qto_`` name, a quantity set) on ``product``."""
     import ifcopenshell.api.pset
+
+    api = ifcopenshell.api
+    if name.startswith("Qto_"):
+        api.pset.edit_qto(model, qto=api.pset.add_qto(model, product=product, name=name),
+                          properties=values)  # fmt: skip
+    else:
+        api.pset.edit_pset(model, pset=api.pset.add_pset(model, product=product, name=name),
+                           properties=values)  # fmt: skip
+
+
+def _fasteners(model, body, source: DocSource, bolts: Bolts, placement) -> list:
     import ifcopenshell.api.root
 
     api = ifcopenshell.api
@@ -286,11 +297,11 @@ def _fasteners(model, body, source: DocSource, bolts: Bolts, placement) -> list:
         )
         shape = model.createIfcShapeRepresentation(body, "Body", "SweptSolid", [solid])
         bolt.Representation = model.createIfcProductDefinitionShape(None, None, [shape])
-        properties = api.pset.add_pset(model, product=bolt, name="FABPANEL_Bolt")
-        api.pset.edit_pset(
+        _property_set(
             model,
-            pset=properties,
-            properties={
+            bolt,
+            "FABPANEL_Bolt",
+            {
                 "Grade": found.grade,
                 "Grip_mm": float(found.grip),
                 "Hole_mm": float(hole),

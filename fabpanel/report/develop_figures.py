@@ -98,6 +98,8 @@ def _plan_cells(ax, samples: np.ndarray, values: np.ndarray, **style):
 def _cells_3d(ax, samples: np.ndarray, values: np.ndarray, cmap: str, clim):
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
+    from .figures import view_3d
+
     corners = np.stack(
         [samples[:, :-1, :-1], samples[:, 1:, :-1], samples[:, 1:, 1:], samples[:, :-1, 1:]],
         axis=3,
@@ -106,12 +108,7 @@ def _cells_3d(ax, samples: np.ndarray, values: np.ndarray, cmap: str, clim):
     cells.set_array(values.ravel())
     cells.set_clim(*clim)
     ax.add_collection3d(cells)
-    points = samples.reshape(-1, 3) / 1000.0
-    lo, hi = points.min(0), points.max(0)
-    ax.set_xlim(lo[0], hi[0]), ax.set_ylim(lo[1], hi[1]), ax.set_zlim(lo[2], hi[2])
-    ax.set_box_aspect(np.maximum(hi - lo, 1e-3))
-    ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]")
-    ax.view_init(elev=28, azim=-60)
+    view_3d(ax, samples.reshape(-1, 3) / 1000.0)
     return cells
 
 

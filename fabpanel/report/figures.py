@@ -14,6 +14,15 @@ CLASS_COLOURS = {
 }
 
 
+def view_3d(ax, points: np.ndarray) -> None:
+    """A 3D axis fitted to ``points (n, 3)`` in m, true to scale, seen from the south-west."""
+    lo, hi = points.min(0), points.max(0)
+    ax.set_xlim(lo[0], hi[0]), ax.set_ylim(lo[1], hi[1]), ax.set_zlim(lo[2], hi[2])
+    ax.set_box_aspect(np.maximum(hi - lo, 1e-3))
+    ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]")
+    ax.view_init(elev=28, azim=-60)
+
+
 def png_bytes(fig) -> bytes:
     """The figure as PNG (110 dpi, trimmed), without a time stamp."""
     buffer = io.BytesIO()
@@ -44,12 +53,7 @@ def panel_figure(developed) -> bytes:
         ax.add_collection3d(poly)
         outline = np.concatenate([grid[:, 0], grid[-1, :], grid[::-1, -1], grid[0, ::-1]]) / 1e3
         ax.plot(*outline.T, color="k", linewidth=0.8)
-    points = grids.reshape(-1, 3) / 1000.0
-    lo, hi = points.min(0), points.max(0)
-    ax.set_xlim(lo[0], hi[0]), ax.set_ylim(lo[1], hi[1]), ax.set_zlim(lo[2], hi[2])
-    ax.set_box_aspect(np.maximum(hi - lo, 1e-3))
-    ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]")
-    ax.view_init(elev=28, azim=-60)
+    view_3d(ax, grids.reshape(-1, 3) / 1000.0)
     data = png_bytes(fig)
     plt.close(fig)
     return data

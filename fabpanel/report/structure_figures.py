@@ -16,14 +16,6 @@ def _sheet(structure, name: str = "TOP"):
     return shell.quads[mask][:, _OUTLINE], np.nonzero(mask)[0]
 
 
-def _view_3d(ax, points):
-    lo, hi = points.min(0), points.max(0)
-    ax.set_xlim(lo[0], hi[0]), ax.set_ylim(lo[1], hi[1]), ax.set_zlim(lo[2], hi[2])
-    ax.set_box_aspect(np.maximum(hi - lo, 1e-3))
-    ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]"), ax.set_zlabel("z [m]")
-    ax.view_init(elev=28, azim=-60)
-
-
 def _shape_figure(structure, field: np.ndarray, title: str, label: str, cmap: str) -> bytes:
     """Top sheet moved by ``field (n, 3)`` scaled to 5 % of the model size, coloured by
     |field|, over the undeformed outline."""
@@ -33,7 +25,7 @@ def _shape_figure(structure, field: np.ndarray, title: str, label: str, cmap: st
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    from .figures import png_bytes
+    from .figures import png_bytes, view_3d
 
     shell = structure.shell
     polys, _ = _sheet(structure)
@@ -54,7 +46,7 @@ def _shape_figure(structure, field: np.ndarray, title: str, label: str, cmap: st
     faces = Poly3DCollection(moved[polys], cmap=cmap, edgecolor="k", linewidth=0.1)
     faces.set_array(values)
     ax.add_collection3d(faces)
-    _view_3d(ax, np.r_[moved[polys].reshape(-1, 3), shell.nodes[polys].reshape(-1, 3) / 1e3])
+    view_3d(ax, np.r_[moved[polys].reshape(-1, 3), shell.nodes[polys].reshape(-1, 3) / 1e3])
     faces.set_clim(0.0, max(float(values.max()), 1e-300))
     ax.set_title(f"{title.format(top=values.max())} (shown x{scale:.3g})", fontsize=10)
     fig.colorbar(faces, ax=ax, shrink=0.7, label=label)
@@ -101,7 +93,7 @@ def utilisation_figure(structure) -> bytes:
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    from .figures import png_bytes
+    from .figures import png_bytes, view_3d
 
     shell = structure.shell
     polys, elements = _sheet(structure)
@@ -125,7 +117,7 @@ def utilisation_figure(structure) -> bytes:
         cells.set_array(values)
         cells.set_clim(0.0, limit)
         ax.add_collection3d(cells)
-        _view_3d(ax, points.reshape(-1, 3))
+        view_3d(ax, points.reshape(-1, 3))
         ax.set_title(f"von Mises / fy, ULS, {title}:\nmax {values.max():.3f}", fontsize=10)
     fig.colorbar(cells, ax=fig.axes, shrink=0.7, label="utilisation [-]")
     data = png_bytes(fig)
