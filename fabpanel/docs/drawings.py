@@ -64,7 +64,7 @@ def write_drawings(source: DocSource, breps: Mapping[str, bytes], path: str | Pa
 
 def _page(source: DocSource, breps: Mapping[str, bytes], name: str, panel: PanelDoc, ids):
     import matplotlib.pyplot as plt
-    from matplotlib.collections import LineCollection
+    from matplotlib.patches import PathPatch
 
     from ..model.hlr import hidden_line_view, plate_normal
 
@@ -89,17 +89,17 @@ def _page(source: DocSource, breps: Mapping[str, bytes], name: str, panel: Panel
         )
         # coordinates from the panel's centre
         shift, projected = projected[0], projected[1:] - projected[0]
-        ax.add_collection(
-            LineCollection(
-                [line - shift for line in hidden],
-                colors="0.55",
-                linewidths=0.25,
-                linestyles=(0, (3, 2)),
-            )
-        )
-        ax.add_collection(
-            LineCollection([line - shift for line in visible], colors="k", linewidths=0.45)
-        )
+        # all edges of a kind as one path: one drawing call instead of thousands
+        for lines, style in (
+            (hidden, {"edgecolor": "0.55", "linewidth": 0.25, "linestyle": (0, (3, 2))}),
+            (visible, {"edgecolor": "k", "linewidth": 0.45}),
+        ):
+            if lines:
+                path = _one_path([line - shift for line in lines])
+                # added as an artist with the limits from its points: add_patch walks every
+                # segment as a Bezier curve to find them
+                ax.add_artist(PathPatch(path, fill=False, **style))
+                ax.update_datalim(path.vertices)
         ax.autoscale_view()
         ax.set_aspect("equal")
         ax.set_title(title, fontsize=8, loc="left")
@@ -121,6 +121,16 @@ def _page(source: DocSource, breps: Mapping[str, bytes], name: str, panel: Panel
     _joint_detail(fig.add_axes((0.57, 0.12, 0.40, 0.22)), source)
     _title_block(fig, source, name, ids, parts)
     return fig
+
+
+def _one_path(lines: list[np.ndarray]):
+    """Polylines as one matplotlib path (a move to the start of each)."""
+    from matplotlib.path import Path as MplPath
+
+    vertices = np.concatenate(lines)
+    codes = np.full(len(vertices), MplPath.LINETO, dtype=np.uint8)
+    codes[np.cumsum([0] + [len(line) for line in lines[:-1]])] = MplPath.MOVETO
+    return MplPath(vertices, codes)
 
 
 def _marks(ax, marks: list[str], points: np.ndarray) -> None:
