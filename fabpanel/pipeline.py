@@ -411,6 +411,15 @@ def _write_outputs(
         from .develop.export import write_developed_obj
 
         write_developed_obj(result.developed, folder / "model" / "developed.obj")
+    laps: dict[str, float] = {}
+    lap = time.perf_counter()
+
+    def done(part: str) -> None:
+        nonlocal lap
+        now = time.perf_counter()
+        laps[part] = now - lap
+        lap = now
+
     if result.model is not None:
         from .model import write_glb, write_panel_steps, write_step_assembly
 
@@ -432,6 +441,7 @@ def _write_outputs(
             from .model.rhino import write_3dm
 
             write_3dm(result.model, folder / "model" / "design.3dm", meshes)
+        done("model")
     if result.flat is not None and result.nests is not None and job.output.dxf:
         (folder / "cut" / "parts").mkdir(parents=True)
         (folder / "cut" / "nests").mkdir(parents=True)
@@ -440,6 +450,7 @@ def _write_outputs(
         )
         note(part_files, "cut/parts")
         note(plate_files, "cut/nests")
+        done("cut")
 
     manifest = build_manifest(result, files)
     source = None
@@ -449,6 +460,7 @@ def _write_outputs(
         source = DocSource.from_manifest(manifest, _run_name(job))
         documents = write_docs(source, folder, {p.id: p.brep for p in result.model.parts}, workers)
         manifest["documents"] = sorted(str(p.relative_to(folder)) for p in documents)
+        done("docs")
     (folder / "manifest.json").write_text(json.dumps(manifest, indent=1, default=_json_default))
     _write_bom(result, folder / "bom.csv", files)
     if result.flat is not None and result.model is not None:
@@ -458,8 +470,10 @@ def _write_outputs(
 
         (folder / "report").mkdir()
         write_report(result, folder / "report", source)
+        done("report")
     written = sum(1 for path in folder.rglob("*") if path.is_file())
-    progress.finish("write", time.perf_counter() - started, f"{written} files")
+    split = ", ".join(f"{k} {v:.0f} s" for k, v in laps.items())
+    progress.finish("write", time.perf_counter() - started, f"{written} files ({split})")
 
 
 def _run_name(job: Job) -> str:

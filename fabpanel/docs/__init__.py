@@ -57,8 +57,13 @@ def write_docs(
     written.append(write_keyplan(source, folder / "docs" / "keyplan.pdf"))
     if breps is not None:
         written.append(write_drawings(source, breps, folder / "docs" / "drawings.pdf"))
-        items = [(p.id, breps[p.id], p.thickness) for p in source.parts if p.id in breps]
-        geometry = dict(zip((n for n, _, _ in items), _in_workers(solid_geometry, items, workers)))
+        items = [
+            (p.id, breps[p.id], p.thickness, not p.kind.startswith("sheet"))
+            for p in source.parts
+            if p.id in breps
+        ]
+        names = [item[0] for item in items]
+        geometry = dict(zip(names, _in_workers(solid_geometry, items, workers)))
         (folder / "model").mkdir(exist_ok=True)
         written.append(
             write_ifc(source, geometry, joint_bolts(source), folder / "model" / "assembly.ifc")

@@ -166,15 +166,16 @@ def _perpendicular(axis: np.ndarray) -> np.ndarray:
     return ref / np.linalg.norm(ref)
 
 
-def solid_geometry(items: list[tuple[str, bytes, float]]) -> list:
-    """Each part's IFC geometry (run in worker processes): a ``PrismProfile`` for a flat plate,
-    else its tessellation (vertices, triangles) by ``IFC_RULE``."""
+def solid_geometry(items: list[tuple[str, bytes, float, bool]]) -> list:
+    """Each part's IFC geometry (run in worker processes): a ``PrismProfile`` for a flat plate
+    (items marked flat: not the sheets, whose large B-spline faces are slow to measure), else
+    its tessellation (vertices, triangles) by ``IFC_RULE``."""
     from ..model.export import tessellate_breps
     from ..model.profiles import prism_profile
 
     found: list = []
-    for name, brep, thickness in items:
-        profile = prism_profile(brep, thickness)
+    for name, brep, thickness, flat in items:
+        profile = prism_profile(brep, thickness) if flat else None
         found.append(
             profile if profile is not None else tessellate_breps([(name, brep)], IFC_RULE)[0]
         )
