@@ -212,3 +212,16 @@ def ray_active() -> bool:
 
 
 __all__ = ["child_preexec", "executor", "ray_active", "terminate_pool", "worker_pool"]
+
+
+def map_chunks(work: Callable[[list], list], items: list, workers: int) -> list:
+    """``work(chunk)`` over ``items`` cut into about four chunks a worker, in ``workers`` fresh
+    worker processes (inline for one worker or few items); the results in order. Fresh workers:
+    this process may have run threads (spyrrow's nests, OCCT) whose locks a forked worker would
+    inherit held, and then wait on forever (seen in the demo)."""
+    if workers <= 1 or len(items) < 16:
+        return work(items)
+    size = -(-len(items) // (4 * workers))
+    chunks = [items[i : i + size] for i in range(0, len(items), size)]
+    with worker_pool(workers, fresh=True) as pool:
+        return [found for chunk in pool.map(work, chunks) for found in chunk]

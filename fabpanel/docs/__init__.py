@@ -12,6 +12,7 @@ import csv
 from collections.abc import Mapping
 from pathlib import Path
 
+from ..parallel import map_chunks
 from .bolts import joint_bolts
 from .drawings import write_drawings
 from .ifc import solid_geometry, write_ifc
@@ -56,31 +57,19 @@ def write_docs(
     written = [write_schedule(s, folder / "docs") for s in schedules(source)]
     written.append(write_keyplan(source, folder / "docs" / "keyplan.pdf"))
     if breps is not None:
-        written.append(write_drawings(source, breps, folder / "docs" / "drawings.pdf"))
+        written.append(write_drawings(source, breps, folder / "docs" / "drawings.pdf", workers))
         items = [
             (p.id, breps[p.id], p.thickness, not p.kind.startswith("sheet"))
             for p in source.parts
             if p.id in breps
         ]
         names = [item[0] for item in items]
-        geometry = dict(zip(names, _in_workers(solid_geometry, items, workers)))
+        geometry = dict(zip(names, map_chunks(solid_geometry, items, workers)))
         (folder / "model").mkdir(exist_ok=True)
         written.append(
             write_ifc(source, geometry, joint_bolts(source), folder / "model" / "assembly.ifc")
         )
     return written
-
-
-def _in_workers(work, items: list, workers: int) -> list:
-    """``work(chunk)`` over ``items`` in ``workers`` fresh worker processes, results in order."""
-    if workers <= 1 or len(items) < 16:
-        return work(items)
-    from ..parallel import worker_pool
-
-    size = -(-len(items) // (4 * workers))
-    chunks = [items[i : i + size] for i in range(0, len(items), size)]
-    with worker_pool(workers, fresh=True) as pool:
-        return [found for chunk in pool.map(work, chunks) for found in chunk]
 
 
 def docs_from_folder(folder: str | Path, workers: int = 1) -> list[Path]:

@@ -13,7 +13,9 @@ revision and date.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass
 from datetime import date
 from pathlib import Path
 
@@ -44,58 +46,117 @@ def rib_tilt(normal: np.ndarray | None, panel_normal: np.ndarray) -> float | Non
     return float(np.degrees(np.arcsin(min(abs(float(normal @ panel_normal)), 1.0))))
 
 
-def write_drawings(source: DocSource, breps: Mapping[str, bytes], path: str | Path) -> Path:
-    """One page per panel type (module docstring) into the PDF ``path``."""
+@dataclass(frozen=True)
+class PageViews:
+    """What a page needs from the solids (computed in a worker): per view, the visible and
+    hidden edges and the markers (part centres, then bolts), in the view's plane from the
+    panel's centre, mm; each rib's tilt against the panel normal, degrees."""
+
+    views: tuple[tuple[list[np.ndarray], list[np.ndarray], np.ndarray], ...]
+    tilts: dict[str, float | None]
+
+
+def write_drawings(
+    source: DocSource, breps: Mapping[str, bytes], path: str | Path, workers: int = 1
+) -> Path:
+    """One page per panel type (module docstring) into the PDF ``path``; the hidden-line views
+    in ``workers`` worker processes."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.backends.backend_pdf import PdfPages
 
+    types = [
+        (name, next(p for p in source.panels if p.id == ids[0]), ids)
+        for name, ids in panel_types(source)
+    ]
+    requests = [_request(source, breps, panel) for _, panel, _ in types]
     path = Path(path)
-    with PdfPages(path, metadata={"CreationDate": None, "Creator": "fabpanel"}) as pages:
-        for name, panel_ids in panel_types(source):
-            panel = next(p for p in source.panels if p.id == panel_ids[0])
-            fig = _page(source, breps, name, panel, panel_ids)
+    with (
+        PdfPages(path, metadata={"CreationDate": None, "Creator": "fabpanel"}) as pages,
+        _projections(requests, workers) as projected,
+    ):
+        # pages are drawn here while the workers project the next ones
+        for (name, panel, ids), views in zip(types, projected):
+            fig = _page(source, name, panel, ids, views)
             pages.savefig(fig)
             plt.close(fig)
     return path
 
 
-def _page(source: DocSource, breps: Mapping[str, bytes], name: str, panel: PanelDoc, ids):
+@contextmanager
+def _projections(requests: list[tuple], workers: int) -> Iterator[Iterator[PageViews]]:
+    """The pages' views in order, as the workers finish them (inline for one worker or a
+    few pages)."""
+    if workers <= 1 or len(requests) < 4:
+        yield iter(_project_pages(requests))
+        return
+    from ..parallel import worker_pool
+
+    size = max(1, -(-len(requests) // (4 * workers)))
+    chunks = [requests[i : i + size] for i in range(0, len(requests), size)]
+    with worker_pool(workers, fresh=True) as pool:
+        yield (page for chunk in pool.map(_project_pages, chunks) for page in chunk)
+
+
+def _request(source: DocSource, breps: Mapping[str, bytes], panel: PanelDoc) -> tuple:
+    """A worker's input for one page: the parts' solids, the view frame, the markers."""
+    parts = source.parts_of(panel.id)
+    centre, normal, x_axis = panel_frame(panel, source.origin)
+    markers = [p.centroid for p in parts if p.centroid is not None]
+    markers += [c for p in parts for c in p.bolt_centres]
+    solids = [(p.id, p.kind, breps[p.id]) for p in parts if p.id in breps]
+    points = np.vstack([centre, np.array(markers).reshape(-1, 3) - source.origin])
+    return solids, centre, normal, x_axis, points
+
+
+def _project_pages(requests: list[tuple]) -> list[PageViews]:
+    from ..model.hlr import hidden_line_view, plate_normal
+
+    pages = []
+    for solids, centre, normal, x_axis, points in requests:
+        y_axis = np.cross(normal, x_axis)
+        breps = [brep for _, _, brep in solids]
+        views = []
+        for view in (normal, -y_axis):
+            visible, hidden, projected = hidden_line_view(breps, centre, view, x_axis, points)
+            # coordinates from the panel's centre
+            shift = projected[0]
+            views.append(
+                ([v - shift for v in visible], [h - shift for h in hidden], projected[1:] - shift)
+            )
+        tilts = {
+            name: rib_tilt(plate_normal(brep), normal)
+            for name, kind, brep in solids
+            if kind == "rib"
+        }
+        pages.append(PageViews(tuple(views), tilts))
+    return pages
+
+
+def _page(source: DocSource, name: str, panel: PanelDoc, ids, found: PageViews):
     import matplotlib.pyplot as plt
     from matplotlib.patches import PathPatch
-
-    from ..model.hlr import hidden_line_view, plate_normal
 
     parts = source.parts_of(panel.id)
     centre, normal, x_axis = panel_frame(panel, source.origin)
     y_axis = np.cross(normal, x_axis)
-    solids = [breps[p.id] for p in parts if p.id in breps]
     inch = 25.4
     fig = plt.figure(figsize=(A3[0] / inch, A3[1] / inch))
     top = fig.add_axes((0.03, 0.30, 0.50, 0.64))
     side = fig.add_axes((0.03, 0.12, 0.50, 0.15))
-    views = (
-        (top, normal, x_axis, "Top view (outside), side 0 along x"),
-        (side, -y_axis, x_axis, "Section view along side 0 (outer face up)"),
-    )
+    titles = ("Top view (outside), side 0 along x", "Section view along side 0 (outer face up)")
     placed = [p for p in parts if p.centroid is not None]
     bolts = [(p.id.split("-", 1)[1], c) for p in parts for c in p.bolt_centres]
-    markers = np.array([p.centroid for p in placed] + [c for _, c in bolts]).reshape(-1, 3)
-    for ax, view, right, title in views:
-        visible, hidden, projected = hidden_line_view(
-            solids, centre, view, right, np.vstack([centre, markers - source.origin])
-        )
-        # coordinates from the panel's centre
-        shift, projected = projected[0], projected[1:] - projected[0]
+    for ax, title, (visible, hidden, projected) in zip((top, side), titles, found.views):
         # all edges of a kind as one path: one drawing call instead of thousands
         for lines, style in (
             (hidden, {"edgecolor": "0.55", "linewidth": 0.25, "linestyle": (0, (3, 2))}),
             (visible, {"edgecolor": "k", "linewidth": 0.45}),
         ):
             if lines:
-                path = _one_path([line - shift for line in lines])
+                path = _one_path(lines)
                 # added as an artist with the limits from its points: add_patch walks every
                 # segment as a Bezier curve to find them
                 ax.add_artist(PathPatch(path, fill=False, **style))
@@ -112,12 +173,7 @@ def _page(source: DocSource, breps: Mapping[str, bytes], name: str, panel: Panel
         (rib, *(float((c - source.origin - centre) @ a) for a in (x_axis, y_axis, normal)))
         for rib, c in bolts
     ]
-    tilts = {
-        p.id: rib_tilt(plate_normal(breps[p.id]), normal)
-        for p in parts
-        if p.kind == "rib" and p.id in breps
-    }
-    _tables(fig, parts, tilts, bolt_rows)
+    _tables(fig, parts, found.tilts, bolt_rows)
     _joint_detail(fig.add_axes((0.57, 0.12, 0.40, 0.22)), source)
     _title_block(fig, source, name, ids, parts)
     return fig

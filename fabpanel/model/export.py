@@ -256,19 +256,11 @@ def tessellate_breps(
     """Tessellate named BREP solids: (vertices mm, triangles) each, in ``workers`` worker
     processes. ``rule`` is (deflection relative to the part's bounding-box diagonal, smallest
     and largest deflection mm, angular deflection rad)."""
-    if workers <= 1 or len(breps) < 16:
-        return _tessellated(breps, rule)
     from functools import partial
 
-    from ..parallel import worker_pool
+    from ..parallel import map_chunks
 
-    size = -(-len(breps) // (4 * workers))
-    chunks = [breps[i : i + size] for i in range(0, len(breps), size)]
-    # fresh workers: this process may have run threads (spyrrow's nests, OCCT) whose locks a
-    # forked worker would inherit held, and then wait on forever (seen in the demo)
-    with worker_pool(workers, fresh=True) as pool:
-        work = partial(_tessellated, rule=rule)
-        return [mesh for chunk in pool.map(work, chunks) for mesh in chunk]
+    return map_chunks(partial(_tessellated, rule=rule), breps, workers)
 
 
 def _tessellated(
