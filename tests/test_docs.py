@@ -185,11 +185,20 @@ def test_erection_sequence_builds_onto_erected_panels(run):
     source = DocSource.from_folder(out)
     order = erection_sequence(source)
     assert sorted(order.values()) == list(range(1, len(source.panels) + 1))
-    first = min(source.panels, key=lambda p: order[p.id])
-    assert first.corners[:, 2].min() == min(p.corners[:, 2].min() for p in source.panels)
+    ground = min(p.corners[:, 2].min() for p in source.panels)
+    span = max(p.corners[:, 2].min() for p in source.panels) - ground
+    on_support = {
+        p.id
+        for p in source.panels
+        if None in p.neighbours and p.corners[:, 2].min() <= ground + 0.01 * span
+    }
+    # both springing rows of the vault stand on the supports and go first
+    assert on_support and all(order[pid] <= len(on_support) for pid in on_support)
     for panel in source.panels:
-        if order[panel.id] > 1:
-            assert any(n and order[n] < order[panel.id] for n in panel.neighbours), panel.id
+        # set on a support, or bolted onto a panel already up
+        assert panel.id in on_support or any(
+            n and order[n] < order[panel.id] for n in panel.neighbours
+        ), panel.id
 
 
 def test_rolling_schedule_gives_radius_chord_and_sagitta(run):
@@ -354,3 +363,24 @@ def test_drawings_have_a_page_per_panel_type_and_true_views(run):
     side = np.linalg.norm(corners[1] - corners[0])
     assert np.ptp(points[:, 0]) == pytest.approx(side, abs=20.0)
     assert hidden  # the ribs and stiffeners under the top sheet
+
+
+def test_a_panel_with_an_error_is_on_hold_in_the_schedule_and_its_drawing(run, tmp_path):
+    from fabpanel.docs.drawings import write_drawings
+    from fabpanel.docs.panels import panel_schedule
+    from fabpanel.model import occ, read_step_parts
+
+    out, manifest = run
+    issue = {"code": "clash", "message": "ribs overlap", "item": "P002-RIB-1", "severity": "error"}
+    held = DocSource.from_manifest({**manifest, "issues": [*manifest["issues"], issue]}, "vault")
+    rows = {r[0]: r for r in panel_schedule(held).rows}
+    assert rows["P002"][-2:] == ("1", "HOLD")
+    assert all(r[-2:] == ("0", "") for pid, r in rows.items() if pid != "P002")
+    if shutil.which("pdftotext"):
+        shapes = read_step_parts(out / "model" / "assembly.step")
+        breps = {name: occ.to_brep(shape) for name, shape in shapes.items()}
+        path = write_drawings(held, breps, tmp_path / "drawings.pdf")
+        text = subprocess.run(
+            ["pdftotext", str(path), "-"], capture_output=True, text=True, check=True
+        ).stdout
+        assert "HOLD: 1 error-level issue(s) on P002" in text

@@ -148,7 +148,7 @@ def _page(source: DocSource, name: str, panel: PanelDoc, ids, found: PageViews):
     side = fig.add_axes((0.03, 0.12, 0.50, 0.15))
     titles = ("Top view (outside), side 0 along x", "Section view along side 0 (outer face up)")
     placed = [p for p in parts if p.centroid is not None]
-    bolts = [(p.id.split("-", 1)[1], c) for p in parts for c in p.bolt_centres]
+    bolts = [(f"{p.id.split('-', 1)[1]} {p.mark}", c) for p in parts for c in p.bolt_centres]
     for ax, title, (visible, hidden, projected) in zip((top, side), titles, found.views):
         # all edges of a kind as one path: one drawing call instead of thousands
         for lines, style in (
@@ -167,7 +167,10 @@ def _page(source: DocSource, name: str, panel: PanelDoc, ids, found: PageViews):
         ax.tick_params(labelsize=6)
         ax.set_xlabel("mm", fontsize=6)
         if ax is top:
-            _marks(ax, [p.mark for p in placed], projected[: len(placed)])
+            # the two sheets share a centre in this view: their marks one above the other
+            offsets = [{"sheet-top": 25.0, "sheet-bottom": -25.0}.get(p.kind, 0.0) for p in placed]
+            where = projected[: len(placed)] + np.column_stack([np.zeros(len(placed)), offsets])
+            _marks(ax, [p.mark for p in placed], where)
             _bolt_marks(ax, projected[len(placed) :])
     bolt_rows = [
         (rib, *(float((c - source.origin - centre) @ a) for a in (x_axis, y_axis, normal)))
@@ -176,6 +179,16 @@ def _page(source: DocSource, name: str, panel: PanelDoc, ids, found: PageViews):
     _tables(fig, parts, found.tilts, bolt_rows)
     _joint_detail(fig.add_axes((0.57, 0.12, 0.40, 0.22)), source)
     _title_block(fig, source, name, ids, parts)
+    held = [pid for pid in ids if pid in source.errors]
+    if held:
+        first = source.errors[held[0]]
+        fig.text(
+            0.03, 0.965,
+            f"HOLD: {sum(len(source.errors[p]) for p in held)} error-level issue(s) on "
+            f"{', '.join(held[:8])}{' ...' if len(held) > 8 else ''}; not to be built as drawn "
+            f"(first: {first[0][:150]})",
+            fontsize=7.5, color="#b3261e", weight="bold", va="bottom",
+        )  # fmt: skip
     return fig
 
 
@@ -217,9 +230,10 @@ def _tables(fig, parts: list[PartDoc], tilts: dict, bolts: list) -> None:
             f"{part.mark:<6} {part.kind:<12} {part.thickness:4.0f} mm {part.mass:7.2f} kg"
             + (f"  tilt {tilts[part.id]:.2f}°" if tilts.get(part.id) is not None else "")
         )
-    lines += ["", f"BOLTS ({len(bolts)}; x along side 0, z outward, mm)"]
+    lines += ["", f"BOLTS ({len(bolts)}; from the panel centre: x along side 0, y across it,"]
+    lines += ["z outward, mm)   rib  mark        x        y       z"]
     for index, (rib, x, y, z) in enumerate(bolts[:TABLE_ROWS], start=1):
-        lines.append(f"{index:>3} {rib:<6} {x:8.1f} {y:8.1f} {z:7.1f}")
+        lines.append(f"{index:>3} {rib:<12} {x:8.1f} {y:8.1f} {z:7.1f}")
     if len(bolts) > TABLE_ROWS:
         lines.append(f"... and {len(bolts) - TABLE_ROWS} more (docs/fasteners.csv, the IFC)")
     fig.text(0.57, 0.94, "\n".join(lines), fontsize=5.6, family="DejaVu Sans Mono", va="top")
@@ -260,7 +274,7 @@ def _joint_detail(ax, source: DocSource) -> None:
     ax.set_xlim(-reach - 5, reach + 5)
     ax.set_ylim(-b.t_bot - 10, h + b.t_top + 10)
     ax.set_title(
-        f"Joint detail: ribs {t_rib:g} mm, gap {gap:g} mm, sheets set back {setback:g} mm, "
+        f"Joint detail: ribs {t_rib:g} mm, gap {gap:g} mm, sheets set back {setback:g} mm,\n"
         f"fillet a = {b.welds.throat:.1f} mm (leg {leg:.1f}), bolt at mid-height",
         fontsize=6.5,
         loc="left",

@@ -1,8 +1,13 @@
 """Per panel: weight, centre of gravity, lifting points, coating area and erection sequence.
 
-Erection sequence: the shell goes up from its supports. The first panel is the lowest (the one
-whose lowest corner is lowest); every next panel is the lowest of those sharing a side with a
-panel already up, so each panel bolts onto the erected part of the shell as it is placed.
+Erection sequence: the shell goes up from its supports. The panels standing on the support level
+(boundary panels whose lowest corner is within 1 % of the span of the lowest point) can be set
+first; every next panel is the lowest of those standing on the supports or sharing a side with a
+panel already up, so each panel is set on a support or bolted onto the erected shell, and both
+sides of a vault rise together.
+
+A panel with error-level issues (on it or one of its parts: a clash, an unreachable bolt, a part
+that was not built) is marked ``HOLD`` with their count: it must not be built as drawn.
 
 Lifting points: one lug on each corner stiffener (the panel's stiffest points, where ribs meet),
 at the stiffener's centre. A panel whose centre of gravity lies outside the lugs' outline seen
@@ -18,26 +23,42 @@ import numpy as np
 from .schedules import Schedule, panel_types
 from .source import DocSource, PartDoc
 
+#: panels whose lowest corner is within this share of the span above the lowest point stand on
+#: the support level
+SUPPORT_LEVEL = 0.01
+
 
 def erection_sequence(source: DocSource) -> dict[str, int]:
-    """Panel id -> its place in the erection order, 1 for the first (module docstring); a
-    layout of several pieces starts each piece at its lowest panel."""
+    """Panel id -> its place in the erection order, 1 for the first (module docstring)."""
     lowest = {p.id: float(p.corners[:, 2].min()) for p in source.panels}
-    neighbours = {p.id: [n for n in p.neighbours if n] for p in source.panels}
+    neighbours = {p.id: [n for n in p.neighbours if n in lowest] for p in source.panels}
+    ground = min(lowest.values(), default=0.0)
+    span = max(lowest.values(), default=0.0) - ground
+    queue = [(lowest[pid], pid) for pid in support_panels(source, ground, span)]
+    heapq.heapify(queue)
     order: dict[str, int] = {}
-    remaining = sorted(lowest, key=lambda pid: (lowest[pid], pid))
     while len(order) < len(lowest):
-        start = next(pid for pid in remaining if pid not in order)
-        queue = [(lowest[start], start)]
-        while queue:
-            _, pid = heapq.heappop(queue)
-            if pid in order:
-                continue
-            order[pid] = len(order) + 1
-            for other in neighbours[pid]:
-                if other not in order and other in lowest:
-                    heapq.heappush(queue, (lowest[other], other))
+        if not queue:  # a piece not standing on the support level: its lowest panel
+            start = min((z, pid) for pid, z in lowest.items() if pid not in order)
+            heapq.heappush(queue, start)
+        _, pid = heapq.heappop(queue)
+        if pid in order:
+            continue
+        order[pid] = len(order) + 1
+        for other in neighbours[pid]:
+            if other not in order:
+                heapq.heappush(queue, (lowest[other], other))
     return order
+
+
+def support_panels(source: DocSource, ground: float, span: float) -> list[str]:
+    """Boundary panels standing on the support level (their lowest corner within
+    ``SUPPORT_LEVEL`` of the span above the lowest point): each is set on its support."""
+    return [
+        p.id
+        for p in source.panels
+        if None in p.neighbours and float(p.corners[:, 2].min()) <= ground + SUPPORT_LEVEL * span
+    ]
 
 
 def centre_of_gravity(parts: list[PartDoc]) -> np.ndarray | None:
@@ -92,6 +113,8 @@ def panel_schedule(source: DocSource) -> Schedule:
                 balanced,
                 f"{sum(p.coating_area for p in parts) / 1e6:.2f}",
                 " ".join(n or "-" for n in panel.neighbours),
+                str(len(source.errors.get(panel.id, ()))),
+                "HOLD" if panel.id in source.errors else "",
             )
         )
     return Schedule(
@@ -114,6 +137,8 @@ def panel_schedule(source: DocSource) -> Schedule:
             "cog_inside_lifting_points",
             "coating_area_m2",
             "neighbours",
+            "errors",
+            "status",
         ),
         tuple(rows),
     )

@@ -18,6 +18,8 @@ from .source import DocSource, PartDoc
 #: chord of the rolling template the shop checks a rolled sheet with, mm (a sheet narrower
 #: than this is checked over its own chord)
 TEMPLATE_CHORD = 1000.0
+#: half the largest bent angle for which a chord and sagitta are given (a quarter turn)
+MAX_HALF_ANGLE = math.pi / 4.0
 #: fillet throat scheduled for plate-to-plate welds between ribs and stiffeners, mm: the
 #: smallest load-bearing fillet EN 1993-1-8 §4.5.2(2) allows. The structural check designs the
 #: sheet-to-rib welds only; these carry the stiffeners' and corners' fit-up, and the engineer
@@ -50,9 +52,13 @@ def rolling_schedule(source: DocSource) -> Schedule:
         low, high = first.bend_radius
         method = _forming_method(first)
         chord = sagitta = template = template_sagitta = ""
-        if low > 0:
-            across = first.roll_extent[1]
-            half = across / (2.0 * low)  # half the bent angle, radians
+        across = first.roll_extent[1]
+        # half the bent angle, radians. A panel sheet bent through more than a quarter turn
+        # at its smallest radius is one whose radius is local (a cone's apex end, a sheet that
+        # opens out): the chord and sagitta of that radius over the whole width would be
+        # meaningless (negative chords past a half turn), so they are left blank
+        half = across / (2.0 * low) if low > 0 else 0.0
+        if 0.0 < half <= MAX_HALF_ANGLE:
             chord = _mm(2.0 * low * math.sin(half))
             sagitta = _mm(low * (1.0 - math.cos(half)))
             t_chord = min(TEMPLATE_CHORD, 2.0 * low * math.sin(half))

@@ -9,7 +9,7 @@ manifest's), masses in kg.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -81,6 +81,9 @@ class DocSource:
     bolts_total: int
     origin: np.ndarray
     fabpanel_version: str
+    #: error-level issues by panel id (an issue on a part counts for its panel): the panel is
+    #: on hold until they are resolved
+    errors: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
     @classmethod
     def from_manifest(cls, manifest: dict, name: str) -> DocSource:
@@ -106,6 +109,7 @@ class DocSource:
             bolts_total=int(build.get("bolts_total", 0)),
             origin=np.asarray(manifest.get("origin_mm", (0.0, 0.0, 0.0)), dtype=float),
             fabpanel_version=str(manifest.get("fabpanel", "")),
+            errors=_errors_by_panel(manifest.get("issues", []), {p.id for p in panels}),
         )
 
     @classmethod
@@ -130,6 +134,17 @@ class DocSource:
 
     def parts_of(self, panel: str) -> list[PartDoc]:
         return [p for p in self.parts if p.panel == panel]
+
+
+def _errors_by_panel(issues: list[dict], panel_ids: set[str]) -> dict[str, tuple[str, ...]]:
+    found: dict[str, list[str]] = {}
+    for issue in issues:
+        if issue.get("severity") != "error":
+            continue
+        panel = str(issue.get("item", "")).split("-", 1)[0]
+        if panel in panel_ids:
+            found.setdefault(panel, []).append(f"{issue['code']}: {issue['message']}")
+    return {k: tuple(v) for k, v in found.items()}
 
 
 def _run_name(manifest: dict, folder: Path) -> str:

@@ -170,3 +170,9 @@ def label(key: str) -> str:
             key = key[: -len(suffix)]
             break
     return key.replace("_", " ")
+
+
+def header_label(key: str) -> str:
+    """A column header with its unit: ``radius_min_mm`` -> ``radius min [mm]``."""
+    unit = unit_of(key)
+    return f"{label(key)} [{unit}]" if unit else label(key)

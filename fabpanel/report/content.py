@@ -19,6 +19,7 @@ from .blocks import (
     Verdict,
     Verdicts,
     cell,
+    header_label,
     label,
     number,
     record_table,
@@ -102,16 +103,21 @@ def verdicts(result) -> Verdicts:
         classes = developed["classes"]
         bad = classes.get("not-developable", 0)
         total = sum(classes.values())
+        # the cut stage's own check: sheets that unroll above the strain tolerance
+        strained = len(_issues_coded(result, "unroll-strain"))
         items.append(
             Verdict(
                 "Developable",
-                "fail" if bad else "pass",
+                "fail" if bad or strained else "pass",
                 (
                     (
                         f"{total - bad} of {total} panels developable "
                         f"({', '.join(f'{v} {k}' for k, v in classes.items())})"
                     ),
-                    f"largest unroll strain {number(developed['unroll_strain_max'])}",
+                    (
+                        f"largest unroll strain {number(developed['unroll_strain_max'])}; "
+                        f"{strained} sheet(s) unroll above the strain tolerance"
+                    ),
                     f"deviation from the design: {cell(developed['deviation_mm'], 'x_mm')}",
                 ),
             )
@@ -122,7 +128,9 @@ def verdicts(result) -> Verdicts:
         clash = checks.get("clash", {})
         clashes = clash.get("clashes", 0) if isinstance(clash, dict) else 0
         unreachable = checks.get("bolts_unreachable") or 0
-        ok = checks.get("all_valid", True) and not clashes and not unreachable
+        not_built = checks.get("panels_not_built", 0)
+        errors = len([i for i in result.issues if i.severity == "error"])
+        ok = checks.get("all_valid", True) and not clashes and not unreachable and not not_built
         items.append(
             Verdict(
                 "Buildable",
@@ -135,7 +143,11 @@ def verdicts(result) -> Verdicts:
                     ),
                     (
                         f"clashes: {clashes}; bolts {checks.get('bolts_total', 0)}, unreachable "
-                        f"{cell(checks.get('bolts_unreachable'))}"
+                        f"{cell(checks.get('bolts_unreachable'))}; panels not built: {not_built}"
+                    ),
+                    (
+                        f"{errors} error-level issue(s): panels with one are marked HOLD in "
+                        "docs/panels.csv and on their drawing"
                     ),
                 ),
             )
@@ -182,6 +194,17 @@ def _structure_verdict(structure: dict) -> Verdict:
         f"deflection {number(d['max_mm'])} mm = {d['ratio']} (limit {number(d['limit_mm'])} mm)",
         f"buckling factor {number(b['first'])} (required {number(b['required'])})",
     )
+    forming = structure.get("forming", {})
+    if forming.get("sprung"):
+        combined = (
+            f"sprung sheets: ULS + locked-in stress utilisation "
+            f"{number(forming['max_combined_utilisation'])} at {forming['part']} "
+            f"({forming['uls_MPa']} + {forming['locked_in_MPa']} MPa)"
+        )
+        lines += (combined,)
+    convergence = b.get("convergence", {})
+    if convergence.get("table") and not convergence.get("converged"):
+        lines += ("buckling mesh study NOT converged within 5 % (see Structure)",)
     bolts = structure.get("bolts", {})
     if bolts.get("checked"):
         lines += (f"bolts: utilisation {number(bolts['utilisation'])}",)
@@ -258,7 +281,10 @@ def develop_blocks(result) -> list[Block]:
         rows = tuple(
             (pid, *(cell(record.get(k), k) for k in keys)) for pid, record in per_panel.items()
         )
-        blocks.append(Table(("panel", *map(label, keys)), rows, sortable=True, caption="Per panel"))
+        # the develop stage's forming is roll or press by radius; whether a sheet is rolled or
+        # sprung is the cut stage's (rolling schedule)
+        names = ["roll or press" if k == "forming" else label(k) for k in keys]
+        blocks.append(Table(("panel", *names), rows, sortable=True, caption="Per panel"))
     return blocks
 
 
@@ -289,7 +315,7 @@ def schedule_blocks(source) -> list[Block]:
         blocks += [
             Heading(f"{schedule.title} (docs/{schedule.name})", 3),
             Table(
-                tuple(label(h) for h in schedule.header),
+                tuple(header_label(h) for h in schedule.header),
                 schedule.rows,
                 sortable=len(schedule.rows) > 12,
             ),

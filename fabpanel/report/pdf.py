@@ -16,6 +16,8 @@ WIDTH = 186.0
 #: table body font, pt; a table wider than this many columns prints smaller
 TABLE_FONT = 7.0
 WIDE_TABLE = 9
+#: printable width of a landscape A4 page, mm
+LANDSCAPE_WIDTH = 273.0
 #: plate thumbnails per row
 GALLERY_COLUMNS = 4
 
@@ -94,7 +96,12 @@ def _table(pdf, block: Table) -> None:
         pdf.set_font("DejaVu", "B", 9)
         pdf.multi_cell(WIDTH, 4.5, block.caption, new_x="LMARGIN", new_y="NEXT")
     columns = len(block.header)
-    size = TABLE_FONT if columns <= WIDE_TABLE else max(4.5, TABLE_FONT * WIDE_TABLE / columns)
+    width = WIDTH
+    if columns > WIDE_TABLE:
+        # a wide table on a landscape page of its own, so its numbers do not wrap mid-value
+        pdf.add_page(orientation="L")
+        width = LANDSCAPE_WIDTH
+    size = TABLE_FONT if columns <= WIDE_TABLE else max(5.0, TABLE_FONT * 14 / columns)
     pdf.set_font("DejaVu", "", size)
     # column widths by the longest text in each (header words may wrap), at least 10 mm
     longest = [
@@ -102,7 +109,7 @@ def _table(pdf, block: Table) -> None:
         for c in range(columns)
     ]
     weights = [min(max(n, 4), 60) for n in longest]
-    widths = [WIDTH * w / sum(weights) for w in weights]
+    widths = [width * w / sum(weights) for w in weights]
     with pdf.table(
         col_widths=widths,
         text_align="LEFT",
@@ -114,6 +121,8 @@ def _table(pdf, block: Table) -> None:
         for row in block.rows:
             table.row(row)
     pdf.ln(2)
+    if columns > WIDE_TABLE:
+        pdf.add_page(orientation="P")
 
 
 def _heading_style():
