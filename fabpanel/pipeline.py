@@ -457,7 +457,7 @@ def _write_outputs(
     if job.docs.write and result.model is not None and result.flat is not None:
         from .docs import DocSource, write_docs
 
-        source = DocSource.from_manifest(manifest, _run_name(job))
+        source = DocSource.from_manifest(manifest)
         documents = write_docs(source, folder, {p.id: p.brep for p in result.model.parts}, workers)
         manifest["documents"] = sorted(str(p.relative_to(folder)) for p in documents)
         done("docs")
@@ -474,11 +474,6 @@ def _write_outputs(
     written = sum(1 for path in folder.rglob("*") if path.is_file())
     split = ", ".join(f"{k} {v:.0f} s" for k, v in laps.items())
     progress.finish("write", time.perf_counter() - started, f"{written} files ({split})")
-
-
-def _run_name(job: Job) -> str:
-    """The run's name in documents: the input file's name without its suffix."""
-    return job.input_path.stem if job.input_path else "fabpanel"
 
 
 def _json_default(value):

@@ -86,8 +86,9 @@ class DocSource:
     errors: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
     @classmethod
-    def from_manifest(cls, manifest: dict, name: str) -> DocSource:
-        """Read a manifest (as ``build_manifest`` makes it, or as read from manifest.json)."""
+    def from_manifest(cls, manifest: dict, name: str | None = None) -> DocSource:
+        """Read a manifest (as ``build_manifest`` makes it, or as read from manifest.json);
+        ``name`` defaults to the input file's name without its suffix."""
         job = Job.from_dict(manifest["job"])
         classes = {p["id"]: p.get("class") or "" for p in manifest["panels"]}
         panels = tuple(
@@ -103,7 +104,7 @@ class DocSource:
         build = manifest.get("metrics", {}).get("build", {})
         return cls(
             job=job,
-            name=name,
+            name=name or _run_name(manifest, "fabpanel"),
             panels=panels,
             parts=parts,
             bolts_total=int(build.get("bolts_total", 0)),
@@ -130,7 +131,7 @@ class DocSource:
             raise InputError(
                 f"{path}: the run built no parts; documents need a run through the build stage"
             )
-        return cls.from_manifest(manifest, name=_run_name(manifest, Path(folder)))
+        return cls.from_manifest(manifest, name=_run_name(manifest, Path(folder).name))
 
     def parts_of(self, panel: str) -> list[PartDoc]:
         return [p for p in self.parts if p.panel == panel]
@@ -147,9 +148,10 @@ def _errors_by_panel(issues: list[dict], panel_ids: set[str]) -> dict[str, tuple
     return {k: tuple(v) for k, v in found.items()}
 
 
-def _run_name(manifest: dict, folder: Path) -> str:
+def _run_name(manifest: dict, fallback: str) -> str:
+    """The input file's name without its suffix, or ``fallback`` for a job without one."""
     source = manifest.get("job", {}).get("input", {}).get("path")
-    return Path(source).stem if source else folder.name
+    return Path(source).stem if source else fallback
 
 
 def _part(record: dict) -> PartDoc:
