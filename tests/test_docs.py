@@ -155,6 +155,36 @@ def test_bolts_pair_the_rib_holes_and_are_long_enough(run):
         assert element.get_psets(fastener)["FABPANEL_Bolt"]["Grade"] == "8.8"
 
 
+def test_a_hole_without_its_partner_takes_no_bolt_and_is_listed(run):
+    """Bolts pair only across a joint's two ribs: a rib whose partner lost a hole (a mismatched
+    joint) keeps every other bolt, and the lone hole is listed, not counted as an anchor."""
+    import copy
+
+    from fabpanel.docs.bolts import joint_bolts
+    from fabpanel.docs.schedules import fastener_schedule
+
+    _, manifest = run
+    source = DocSource.from_manifest(manifest)
+    whole = joint_bolts(source)
+    assert len(whole.diameters) == manifest["metrics"]["build"]["bolts_total"]
+    assert whole.unmatched == () and whole.anchor_holes == 0
+    # every pair joins a rib with the rib of its neighbour that faces it
+    by_id = {p.id: p for p in source.panels}
+    for a, b in whole.ribs:
+        (pa, _, sa), (pb, _, sb) = a.split("-"), b.split("-")
+        assert by_id[pa].neighbours[int(sa)] == pb and by_id[pb].neighbours[int(sb)] == pa
+    broken = copy.deepcopy(manifest)
+    rib = next(p for p in broken["parts"] if p["kind"] == "rib" and p.get("bolt_holes"))
+    rib["bolt_holes"][1]["centre_mm"][0] += 40.0  # a hole moved off its partner
+    bolts = joint_bolts(DocSource.from_manifest(broken))
+    assert len(bolts.diameters) == len(whole.diameters) - 1
+    partner = next(b if a == rib["id"] else a for a, b in whole.ribs if rib["id"] in (a, b))
+    assert sorted(bolts.unmatched) == sorted([rib["id"], partner])
+    schedule = fastener_schedule(DocSource.from_manifest(broken))
+    lone = [r for r in schedule.rows if r[0].startswith("no bolt")]
+    assert len(lone) == 1 and lone[0][6] == "2" and rib["id"] in lone[0][2]
+
+
 def test_panel_weights_and_centres_of_gravity_match_the_solids(run):
     out, manifest = run
     _, meshes = ifc_meshes(out)
@@ -352,6 +382,28 @@ def test_drawings_have_a_page_per_panel_type_and_true_views(run):
             capture_output=True, text=True, check=True,
         ).stdout  # fmt: skip
         assert all(f"panel type {name}" in text for name, _ in types)
+        assert all(f"side {s}:" in text for s in range(4)) and "C3" in text
+    # dimensions: each side's chord, and the top sheet's edge: on the vault's arcs longer than
+    # the chord, on the straight sides the chord less its set-backs; every bolt lies along its
+    # side, between the side's corners
+    from fabpanel.buildup import Buildup
+    from fabpanel.docs.drawings import along_side, side_lengths
+
+    setback = Buildup.of(source.job).welds.setback
+    for panel in source.panels:
+        parts = source.parts_of(panel.id)
+        for s, text in enumerate(side_lengths(panel, parts)):
+            chord, edge = float(text.split()[0]), float(text.split()[-1].rstrip(")"))
+            # (set back at an end that meets an interior side only)
+            assert edge > chord + 50.0 or chord - 2 * setback - 0.5 <= edge <= chord + 0.5
+            assert chord == pytest.approx(
+                np.linalg.norm(panel.corners[(s + 1) % 4] - panel.corners[s]), abs=0.05
+            )
+        for part in parts:
+            for centre in part.bolt_centres:
+                side, along = along_side(panel, f"{part.id.split('-', 1)[1]} {part.mark}", centre)
+                chord = np.linalg.norm(panel.corners[(side + 1) % 4] - panel.corners[side])
+                assert part.id.endswith(f"RIB-{side}") and 0.0 < along < chord
     # the top view of a panel, seen along its normal, spans its side 0 (plus the ribs)
     panel = source.panels[0]
     centre, normal, x_axis = panel_frame(panel, source.origin)

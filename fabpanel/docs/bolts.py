@@ -1,10 +1,11 @@
 """The bolts of the assembly, found from the ribs' holes, and the bolt set each one needs.
 
-Back-to-back ribs of a joint hold coaxial holes: the two holes of one bolt are the nearest
-pair across two parts, ``2 t_rib + gap`` apart along the axis (plate mid-planes), far closer
-than two bolts of one rib (at least 2.2 d0 apart, EN 1993-1-8 Table 3.3). A hole without a
-partner sits on a boundary rib: it takes an anchor bolt whose length the foundation design sets,
-so it is counted but not sized here.
+Back-to-back ribs of a joint hold coaxial holes: the two holes of one bolt are a pair across
+the joint's two ribs (found from the panels' neighbours), ``t_rib + gap`` apart along the axis
+(plate mid-planes), far closer than two bolts of one rib (at least 2.2 d0 apart, EN 1993-1-8
+Table 3.3). A hole on a boundary rib takes an anchor bolt whose length the foundation design
+sets, so it is counted but not sized here. A hole on an interior rib without a partner (a joint
+the build flagged as mismatched) takes no bolt: the documents list it so the joint is fixed.
 """
 
 from __future__ import annotations
@@ -50,13 +51,16 @@ WASHER_CLASS = {"4.6": "200 HV", "5.6": "200 HV", "8.8": "200 HV", "10.9": "300 
 @dataclass(frozen=True)
 class Bolts:
     """Joint bolts: centre (n, 3) between the two ribs, unit axis (n, 3), hole diameter (n,),
-    the two rib ids of each; ``anchor_holes``: holes without a partner (boundary ribs)."""
+    the two rib ids of each; ``anchor_holes``: holes on boundary ribs (no neighbour);
+    ``unmatched``: for each interior-rib hole without a partner in the neighbour's rib (a joint
+    the build flagged, or whose neighbour was not built), the id of its rib."""
 
     centres: np.ndarray
     axes: np.ndarray
     diameters: np.ndarray
     ribs: tuple[tuple[str, str], ...]
     anchor_holes: int
+    unmatched: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -74,39 +78,60 @@ class BoltSet:
 
 
 def joint_bolts(source: DocSource) -> Bolts:
-    """Pair every rib bolt hole with its partner in the neighbouring rib (module docstring)."""
-    from scipy.spatial import cKDTree
-
-    holes = [
-        (part.id, c, a, d)
-        for part in source.parts
-        for c, a, d in zip(part.bolt_centres, part.bolt_axes, part.bolt_diameters)
-    ]
-    if not holes:
-        return Bolts(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), (), 0)
-    owner = [h[0] for h in holes]
-    centres = np.array([h[1] for h in holes])
-    axes = np.array([h[2] for h in holes])
-    diameters = np.array([h[3] for h in holes])
+    """Pair the holes of each joint's two ribs (module docstring): the ribs are found from the
+    panels' neighbours, so a hole is only ever paired with one in the rib it bolts to."""
+    ribs = {p.id: p for p in source.parts if p.kind == "rib" and len(p.bolt_diameters)}
     reach = _pair_distance(source) + 1.0
-    distance, nearest = cKDTree(centres).query(centres, k=min(3, len(centres)))
-    distance, nearest = np.atleast_2d(distance), np.atleast_2d(nearest)
-    pairs: list[tuple[int, int]] = []
-    for i in range(len(centres)):
-        for d, j in zip(distance[i, 1:], nearest[i, 1:]):
-            # each pair once; the partner is another part's hole, mutually nearest
-            if d <= reach and owner[j] != owner[i] and i < j and nearest[j, 1] == i:
-                pairs.append((i, int(j)))
-                break
-    paired = {k for pair in pairs for k in pair}
-    a, b = (np.array([p[k] for p in pairs], dtype=int) for k in (0, 1))
+    centres, axes, diameters, pairs = [], [], [], []
+    anchors, unmatched = 0, []
+    for panel in source.panels:
+        for side, neighbour in enumerate(panel.neighbours):
+            rib = ribs.get(f"{panel.id}-RIB-{side}")
+            if rib is None:
+                continue
+            if neighbour is None:
+                anchors += len(rib.bolt_diameters)
+                continue
+            partner = ribs.get(_partner_rib(source, panel.id, neighbour) or "")
+            if partner is None:
+                unmatched += [rib.id] * len(rib.bolt_diameters)
+                continue
+            if rib.id > partner.id:
+                continue  # each joint once, from the rib with the smaller id
+            a, b = _pair_holes(rib.bolt_centres, partner.bolt_centres, reach)
+            centres.append((rib.bolt_centres[a] + partner.bolt_centres[b]) / 2.0)
+            axes.append(rib.bolt_axes[a])
+            diameters.append(np.maximum(rib.bolt_diameters[a], partner.bolt_diameters[b]))
+            pairs += [(rib.id, partner.id)] * len(a)
+            unmatched += [rib.id] * (len(rib.bolt_diameters) - len(a))
+            unmatched += [partner.id] * (len(partner.bolt_diameters) - len(b))
     return Bolts(
-        centres=(centres[a] + centres[b]) / 2.0 if pairs else np.zeros((0, 3)),
-        axes=axes[a] if pairs else np.zeros((0, 3)),
-        diameters=np.maximum(diameters[a], diameters[b]) if pairs else np.zeros(0),
-        ribs=tuple((owner[i], owner[j]) for i, j in pairs),
-        anchor_holes=len(centres) - len(paired),
+        centres=np.concatenate(centres) if centres else np.zeros((0, 3)),
+        axes=np.concatenate(axes) if axes else np.zeros((0, 3)),
+        diameters=np.concatenate(diameters) if diameters else np.zeros(0),
+        ribs=tuple(pairs),
+        anchor_holes=anchors,
+        unmatched=tuple(unmatched),
     )
+
+
+def _partner_rib(source: DocSource, panel: str, neighbour: str) -> str | None:
+    """The id of the rib of ``neighbour`` that lies against ``panel``."""
+    other = next((p for p in source.panels if p.id == neighbour), None)
+    if other is None or panel not in other.neighbours:
+        return None
+    return f"{neighbour}-RIB-{other.neighbours.index(panel)}"
+
+
+def _pair_holes(a: np.ndarray, b: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of the holes of ``a (n, 3)`` and ``b (m, 3)`` that are one bolt: the closest
+    one-to-one assignment, kept where the two centres are within ``reach`` mm."""
+    from scipy.optimize import linear_sum_assignment
+
+    distance = np.linalg.norm(a[:, None] - b[None], axis=2)
+    rows, cols = linear_sum_assignment(distance)
+    keep = distance[rows, cols] <= reach
+    return rows[keep], cols[keep]
 
 
 def _pair_distance(source: DocSource) -> float:

@@ -2,10 +2,12 @@
 
 Each page shows the type's first panel projected from its solids with hidden lines (OCCT's
 hidden-line removal, :mod:`fabpanel.model.hlr`): a top view looking onto the outer face, side 0
-along the sheet's x axis, and a section view along side 0 showing the sandwich's depth. Part
-marks sit at the parts' centres, bolts are numbered crosses; beside the views, the parts list
+along the sheet's x axis, corners named C0..C3 and each side dimensioned (corner to corner, and
+the top sheet's edge along the surface), and a section view along side 0 with the overall height. Part marks sit at
+the parts' centres, bolts are numbered crosses; beside the views, the parts list
 (mark, kind, thickness, mass), each rib's tilt against the panel normal (0° = square to the
-panel, the bevel the rib's edges are cut at), the bolts' positions in the panel's frame, and the
+panel, the bevel the rib's edges are cut at), the bolts' positions (along the side from its
+corner, and in the panel's frame), and the
 joint detail (section across two ribs, from the sandwich build-up: sheet set-back, fillet
 welds, erection gap, bolt). Title block with project, panel type, panels of the type,
 revision and date.
@@ -49,8 +51,8 @@ def rib_tilt(normal: np.ndarray | None, panel_normal: np.ndarray) -> float | Non
 @dataclass(frozen=True)
 class PageViews:
     """What a page needs from the solids (computed in a worker): per view, the visible and
-    hidden edges and the markers (part centres, then bolts), in the view's plane from the
-    panel's centre, mm; each rib's tilt against the panel normal, degrees."""
+    hidden edges and the markers (the four panel corners, part centres, then bolts), in the
+    view's plane from the panel's centre, mm; each rib's tilt against the panel normal, degrees."""
 
     views: tuple[tuple[list[np.ndarray], list[np.ndarray], np.ndarray], ...]
     tilts: dict[str, float | None]
@@ -107,7 +109,8 @@ def _request(source: DocSource, breps: Mapping[str, bytes], panel: PanelDoc) -> 
     markers = [p.centroid for p in parts if p.centroid is not None]
     markers += [c for p in parts for c in p.bolt_centres]
     solids = [(p.id, p.kind, breps[p.id]) for p in parts if p.id in breps]
-    points = np.vstack([centre, np.array(markers).reshape(-1, 3) - source.origin])
+    corners = panel.corners - source.origin
+    points = np.vstack([centre, corners, np.array(markers).reshape(-1, 3) - source.origin])
     return solids, centre, normal, x_axis, points
 
 
@@ -166,16 +169,21 @@ def _page(source: DocSource, name: str, panel: PanelDoc, ids, found: PageViews):
         ax.set_title(title, fontsize=8, loc="left")
         ax.tick_params(labelsize=6)
         ax.set_xlabel("mm", fontsize=6)
+        corners, markers = projected[:4], projected[4:]
         if ax is top:
             # the two sheets share a centre in this view: their marks one above the other
             offsets = [{"sheet-top": 25.0, "sheet-bottom": -25.0}.get(p.kind, 0.0) for p in placed]
-            where = projected[: len(placed)] + np.column_stack([np.zeros(len(placed)), offsets])
+            where = markers[: len(placed)] + np.column_stack([np.zeros(len(placed)), offsets])
             _marks(ax, [p.mark for p in placed], where)
-            _bolt_marks(ax, projected[len(placed) :])
+            _bolt_marks(ax, markers[len(placed) :])
+            _side_dimensions(ax, corners, side_lengths(panel, parts))
+        else:
+            _depth_dimension(ax, visible)
     bolt_rows = [
-        (rib, *(float((c - source.origin - centre) @ a) for a in (x_axis, y_axis, normal)))
+        (rib, *along_side(panel, rib, c),
+         *(float((c - source.origin - centre) @ a) for a in (x_axis, y_axis, normal)))
         for rib, c in bolts
-    ]
+    ]  # fmt: skip
     _tables(fig, parts, found.tilts, bolt_rows)
     _joint_detail(fig.add_axes((0.57, 0.12, 0.40, 0.22)), source)
     _title_block(fig, source, name, ids, parts)
@@ -190,6 +198,75 @@ def _page(source: DocSource, name: str, panel: PanelDoc, ids, found: PageViews):
             fontsize=7.5, color="#b3261e", weight="bold", va="bottom",
         )  # fmt: skip
     return fig
+
+
+def side_lengths(panel: PanelDoc, parts: list[PartDoc]) -> list[str]:
+    """Each side's dimension text: the corner-to-corner chord (the panel's size at the rib
+    faces) and the top sheet's edge length (along its curved edge, shorter by the set-backs at
+    both ends: what a tape along the sheet reads), mm."""
+    chords = np.linalg.norm(np.roll(panel.corners, -1, axis=0) - panel.corners, axis=1)
+    sheet = next((p for p in parts if p.kind == "sheet-top"), None)
+    arcs = sheet.edge_lengths_3d if sheet is not None and len(sheet.edge_lengths_3d) == 4 else None
+    if arcs is None:
+        return [f"{c:.1f}" for c in chords]
+    return [f"{c:.1f} (sheet edge {a:.1f})" for a, c in zip(arcs, chords)]
+
+
+def along_side(panel: PanelDoc, rib: str, centre: np.ndarray) -> tuple[int, float]:
+    """A rib bolt's position as a fitter measures it: the rib's first corner (side s runs from
+    corner s to corner s + 1) and the distance from it along the side's chord, mm."""
+    side = int(rib.split()[0].rsplit("-", 1)[1])
+    start, end = panel.corners[side], panel.corners[(side + 1) % 4]
+    direction = (end - start) / np.linalg.norm(end - start)
+    return side, float((centre - start) @ direction)
+
+
+def _side_dimensions(ax, corners: np.ndarray, texts: list[str]) -> None:
+    """Aligned dimension lines outside each side of the top view, corners named C0..C3."""
+    middle = corners.mean(axis=0)
+    size = float(np.ptp(corners, axis=0).max())
+    offset = 0.07 * size
+    for s, text in enumerate(texts):
+        p, q = corners[s], corners[(s + 1) % 4]
+        along = (q - p) / max(float(np.linalg.norm(q - p)), 1e-9)
+        out = np.array([along[1], -along[0]])
+        if (p + q) / 2 @ out < middle @ out:
+            out = -out
+        a, b = p + out * offset, q + out * offset
+        for start, end in ((p, a), (q, b)):
+            ax.plot(*np.c_[start + out * 0.01 * size, end + out * 0.02 * size], color="#2e7d32",
+                    lw=0.3)  # fmt: skip
+        ax.annotate("", a, b, arrowprops={"arrowstyle": "<|-|>", "color": "#2e7d32", "lw": 0.4,
+                                          "shrinkA": 0, "shrinkB": 0, "mutation_scale": 5})  # fmt: skip
+        angle = float(np.degrees(np.arctan2(along[1], along[0])))
+        angle = (angle + 90.0) % 180.0 - 90.0  # read from below or from the right
+        ax.text(*((a + b) / 2 + out * 0.018 * size), f"side {s}: {text}", rotation=angle,
+                rotation_mode="anchor", ha="center", va="center", fontsize=5.5,
+                color="#2e7d32")  # fmt: skip
+    for index, corner in enumerate(corners):
+        label = corner + (corner - middle) / max(float(np.linalg.norm(corner - middle)), 1e-9) * (
+            0.045 * size
+        )
+        ax.text(*label, f"C{index}", fontsize=6.5, ha="center", va="center", weight="bold")
+    ax.update_datalim(np.vstack([corners + (corners - middle) * 0.25]))
+    ax.autoscale_view()
+
+
+def _depth_dimension(ax, visible: list[np.ndarray]) -> None:
+    """The panel's overall height in the section view (depth and rise), dimensioned at its
+    right end."""
+    if not visible:
+        return
+    points = np.concatenate(visible)
+    (x0, y0), (x1, y1) = points.min(axis=0), points.max(axis=0)
+    x = x1 + 0.03 * (x1 - x0)
+    ax.annotate("", (x, y0), (x, y1), arrowprops={"arrowstyle": "<|-|>", "color": "#2e7d32",
+                                                  "lw": 0.4, "shrinkA": 0, "shrinkB": 0,
+                                                  "mutation_scale": 5})  # fmt: skip
+    ax.text(x + 0.01 * (x1 - x0), (y0 + y1) / 2, f"overall {y1 - y0:.1f}", fontsize=5.5, va="center",
+            color="#2e7d32")  # fmt: skip
+    ax.update_datalim([(x + 0.08 * (x1 - x0), y1)])
+    ax.autoscale_view()
 
 
 def _one_path(lines: list[np.ndarray]):
@@ -230,10 +307,11 @@ def _tables(fig, parts: list[PartDoc], tilts: dict, bolts: list) -> None:
             f"{part.mark:<6} {part.kind:<12} {part.thickness:4.0f} mm {part.mass:7.2f} kg"
             + (f"  tilt {tilts[part.id]:.2f}°" if tilts.get(part.id) is not None else "")
         )
-    lines += ["", f"BOLTS ({len(bolts)}; from the panel centre: x along side 0, y across it,"]
-    lines += ["z outward, mm)   rib  mark        x        y       z"]
-    for index, (rib, x, y, z) in enumerate(bolts[:TABLE_ROWS], start=1):
-        lines.append(f"{index:>3} {rib:<12} {x:8.1f} {y:8.1f} {z:7.1f}")
+    lines += ["", f"BOLTS ({len(bolts)}): along the side's chord from corner C; x, y, z from"]
+    lines += ["the panel centre (x along side 0, y across it, z outward), mm"]
+    lines += ["    rib  mark     from  along        x        y       z"]
+    for index, (rib, corner, along, x, y, z) in enumerate(bolts[:TABLE_ROWS], start=1):
+        lines.append(f"{index:>3} {rib:<12} C{corner} {along:7.1f} {x:8.1f} {y:8.1f} {z:7.1f}")
     if len(bolts) > TABLE_ROWS:
         lines.append(f"... and {len(bolts) - TABLE_ROWS} more (docs/fasteners.csv, the IFC)")
     fig.text(0.57, 0.94, "\n".join(lines), fontsize=5.6, family="DejaVu Sans Mono", va="top")

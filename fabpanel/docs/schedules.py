@@ -178,6 +178,15 @@ def fastener_schedule(source: DocSource) -> Schedule:
                 str(bolts.anchor_holes), "", "",
             )
         )  # fmt: skip
+    if bolts.unmatched:
+        ribs = sorted(set(bolts.unmatched))
+        named = ", ".join(ribs[:6]) + (f" and {len(ribs) - 6} more" if len(ribs) > 6 else "")
+        rows.append(
+            (
+                "no bolt: hole without a partner", "fix the joint (build issues)", named,
+                "", "", "", str(len(bolts.unmatched)), "", "",
+            )
+        )  # fmt: skip
     return Schedule(
         "fasteners.csv",
         "Fasteners",
