@@ -376,7 +376,16 @@ def test_barrel_vault_by_en1991_every_case_balances_and_each_action_leads(vault_
     with open(folder / "en1991" / "reactions.csv") as handle:
         rows = list(csv.reader(handle))
     assert tuple(rows[0]) == REACTION_COLUMNS
-    body = {(r[0], r[1]): np.array(r[2:], float) for r in rows[1:]}
+    body = {(r[0], r[4]): np.array(r[5:], float) for r in rows[1:]}
+    # each support placed where the foundation engineer needs it: in the design's own frame
+    # (the input's), at the springing line (the layout's lowest edge), as in summary.json
+    layout = result.model.developed.layout
+    design = np.asarray(layout.vertices) + np.asarray(layout.origin)
+    for support in supports:
+        where = [np.array(r[1:4], float) for r in rows[1:] if r[0] == support["support"]]
+        np.testing.assert_allclose(where[0], support["centroid_mm"], atol=0.1)
+        assert np.all(where[0] > design.min(0) - 200) and np.all(where[0] < design.max(0) + 200)
+        assert where[0][2] < design[:, 2].min() + 300
     assert len(body) == len(rows) - 1 == 2 * (len(cases) + len(uls) + len(s["combinations"]["SLS"]))
     # per case, the supports add up to the total reaction
     for name, case in cases.items():

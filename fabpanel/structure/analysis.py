@@ -333,7 +333,8 @@ def _analyse(
     sls = [c for c in combos if c.kind == "SLS"]
     f_uls = np.stack([c.factors for c in uls])
     f_sls = np.stack([c.factors for c in sls])
-    per_support = support_reactions(shell, names, dat.node_forces, applied_loads)
+    origin = np.asarray(developed.layout.origin, dtype=float)
+    per_support = support_reactions(shell, names, dat.node_forces, applied_loads, origin)
     issues += support_sum_issues(per_support, reactions)
     combined_supports = per_support.combined(
         [f"{c.kind} {c.name}" for c in uls + sls], np.concatenate([f_uls, f_sls])
@@ -381,7 +382,9 @@ def _analyse(
         issues += found
 
     # ---- bolts -----------------------------------------------------------------------------
-    bolts_summary, bolt_issues = bolt_checks(shell, joint, dat, f_uls, [c.name for c in uls], job)
+    bolts_summary, bolt_issues = bolt_checks(
+        shell, joint, dat, f_uls, [c.name for c in uls], job, origin
+    )
     issues += bolt_issues
     if keep and joint is not None:
         write_bolts_csv(folder / "bolts.csv", bolts_summary)

@@ -84,10 +84,12 @@ def bolt_checks(
     factors: np.ndarray,
     names: list[str],
     job,
+    origin: np.ndarray,
 ) -> tuple[dict, list[Issue]]:
     """``(summary, issues)``: the largest shear, tension and utilisation of the joint bolts
     over the ULS combinations ``factors (K, C)`` named ``names``; ``summary["rows"]`` holds
-    one row per bolt for :func:`write_bolts_csv`. Without bolted joints, says so."""
+    one row per bolt for :func:`write_bolts_csv`, placed in the design's frame (``origin``
+    added to the model's local points). Without bolted joints, says so."""
     if joint is None or shell.springs is None or not len(joint.names):
         why = (
             'rigid joints ([structure] joints = "rigid"): bolts not modelled or checked'
@@ -132,9 +134,9 @@ def bolt_checks(
             "bolt": joint.names[b],
             "joint": joint_of[b],
             "worst_in_joint": b in worst_in_joint,
-            "x_mm": round(float(joint.points[b, 0]), 1),
-            "y_mm": round(float(joint.points[b, 1]), 1),
-            "z_mm": round(float(joint.points[b, 2]), 1),
+            "x_mm": round(float(joint.points[b, 0] + origin[0]), 1),
+            "y_mm": round(float(joint.points[b, 1] + origin[1]), 1),
+            "z_mm": round(float(joint.points[b, 2] + origin[2]), 1),
             "shear_kN": round(float(shear[:, b].max()) / 1e3, 3),
             "tension_kN": round(float(tension[:, b].max()) / 1e3, 3),
             "bearing_resistance_kN": round(float(f_b[b]) / 1e3, 2),

@@ -35,7 +35,19 @@ from ..errors import GeometryError
 from .mesh import ShellModel
 
 #: columns of ``structure/reactions.csv`` (a contract: foundation engineers' scripts read it)
-REACTION_COLUMNS = ("support", "case", "fx_kN", "fy_kN", "fz_kN", "mx_kNm", "my_kNm", "mz_kNm")
+REACTION_COLUMNS = (
+    "support",
+    "x_mm",
+    "y_mm",
+    "z_mm",
+    "case",
+    "fx_kN",
+    "fy_kN",
+    "fz_kN",
+    "mx_kNm",
+    "my_kNm",
+    "mz_kNm",
+)
 
 
 def layout_boundary_loops(
@@ -227,7 +239,8 @@ def support_regions(shell: ShellModel) -> tuple[np.ndarray, np.ndarray]:
 @dataclass(frozen=True)
 class SupportReactions:
     """The reactions of every support: ``force (cases, k, 3)`` N and ``moment (cases, k, 3)``
-    N mm about each support's ``centroid (k, 3)``, one row per case in ``cases``."""
+    N mm about each support's ``centroid (k, 3)`` (mm, in the design's own frame: where the
+    foundation engineer places the support), one row per case in ``cases``."""
 
     names: tuple[str, ...]
     centroids: np.ndarray
@@ -246,12 +259,13 @@ class SupportReactions:
         )
 
     def rows(self) -> list[list[str]]:
-        """``REACTION_COLUMNS`` rows: per support, per case; kN and kN m."""
+        """``REACTION_COLUMNS`` rows: per support, per case; mm, kN and kN m."""
         out = []
         for s, name in enumerate(self.names):
+            where = [f"{v:.1f}" for v in self.centroids[s]]
             for c, case in enumerate(self.cases):
                 values = np.r_[self.force[c, s] / 1e3, self.moment[c, s] / 1e6]
-                out.append([name, case, *(f"{v:.3f}" for v in values)])
+                out.append([name, *where, case, *(f"{v:.3f}" for v in values)])
         return out
 
 
@@ -260,9 +274,12 @@ def support_reactions(
     cases: list[str],
     node_forces: list[tuple[np.ndarray, np.ndarray]],
     applied: list[np.ndarray],
+    origin: np.ndarray,
 ) -> SupportReactions:
     """Each support's reaction per case from CalculiX's RF per supported node (``node_forces``:
-    ids (model index + 1) and RF per case) less the load ``applied (n, 3)`` on those nodes."""
+    ids (model index + 1) and RF per case) less the load ``applied (n, 3)`` on those nodes;
+    ``origin``: the design frame's origin in the model's local frame's terms (added to the
+    centroids)."""
     supports = np.asarray(shell.supports)
     labels, centroids = support_regions(shell)
     k = len(centroids)
@@ -279,7 +296,7 @@ def support_reactions(
             force[c, r] = reaction[mine].sum(axis=0)
             moment[c, r] = np.cross(shell.nodes[nodes[mine]] - centroids[r], reaction[mine]).sum(0)
     names = tuple(f"R{r + 1}" for r in range(k))
-    return SupportReactions(names, centroids, tuple(cases), force, moment)
+    return SupportReactions(names, centroids + origin, tuple(cases), force, moment)
 
 
 def write_reactions_csv(path: Path, *tables: SupportReactions) -> Path:
