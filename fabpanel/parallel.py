@@ -171,7 +171,8 @@ def worker_pool(workers: int, fresh: bool = False) -> Iterator[Executor]:
 
     fresh : start the workers from a fresh server process ("forkserver") instead of forking
         this one. Needed once this process has run spyrrow: its Rust thread pool does not
-        survive a fork, and a forked worker packing with it waits forever.
+        survive a fork, and a forked worker packing with it waits forever. Inside
+        :func:`shared_pool`, the shared pool's workers.
     """
     ray_settings = _RAY.get()
     if ray_settings is not None:
@@ -182,6 +183,11 @@ def worker_pool(workers: int, fresh: bool = False) -> Iterator[Executor]:
             ray_pool.shutdown(wait=False, cancel_futures=True)
             raise
         ray_pool.shutdown()
+        return
+    shared = _SHARED.get()
+    if fresh and shared is not None:
+        # an error goes on up to the shared pool's owner, which stops the workers
+        yield shared
         return
     context = multiprocessing.get_context("forkserver") if fresh else None
     pool = ProcessPoolExecutor(
@@ -198,6 +204,29 @@ def worker_pool(workers: int, fresh: bool = False) -> Iterator[Executor]:
     pool.shutdown(wait=True)
 
 
+#: the pool :func:`shared_pool` lends to every fresh ``worker_pool`` opened inside it
+_SHARED: contextvars.ContextVar[Executor | None] = contextvars.ContextVar(
+    "fabpanel_shared_pool", default=None
+)
+
+
+@contextmanager
+def shared_pool(workers: int) -> Iterator[None]:
+    """One pool of fresh workers for every ``worker_pool(..., fresh=True)`` opened inside
+    (the write stage's files): starting fresh workers costs about 3 s on 2 cores (a server
+    process, then each worker importing OCCT and build123d), and the stage opened five pools.
+    Nothing changes on Ray or with one worker."""
+    if workers <= 1 or _RAY.get() is not None:
+        yield
+        return
+    with worker_pool(workers, fresh=True) as pool:
+        token = _SHARED.set(pool)
+        try:
+            yield
+        finally:
+            _SHARED.reset(token)
+
+
 def child_preexec() -> None:
     """``preexec_fn`` for external programs (CalculiX): killed when fabpanel dies, even by
     SIGKILL (a stopped run kills its child itself: ``subprocess.run`` does on any exception)."""
@@ -211,7 +240,14 @@ def ray_active() -> bool:
     return _RAY.get() is not None
 
 
-__all__ = ["child_preexec", "executor", "ray_active", "terminate_pool", "worker_pool"]
+__all__ = [
+    "child_preexec",
+    "executor",
+    "ray_active",
+    "shared_pool",
+    "terminate_pool",
+    "worker_pool",
+]
 
 
 def map_chunks(work: Callable[[list], list], items: list, workers: int) -> list:

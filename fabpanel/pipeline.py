@@ -391,8 +391,15 @@ def _write_cut_files(
 def _write_outputs(
     result: Result, folder: Path, progress: Progress, jobs: int | None = None
 ) -> None:
-    job = result.job
+    from .parallel import shared_pool
+
     workers = jobs or os.cpu_count() or 1
+    with shared_pool(workers):  # one start of the workers for every file
+        _write_files(result, folder, progress, workers)
+
+
+def _write_files(result: Result, folder: Path, progress: Progress, workers: int) -> None:
+    job = result.job
     started = time.perf_counter()
     progress.start("write", None)
     files: dict[str, list[str]] = {}
@@ -425,7 +432,7 @@ def _write_outputs(
 
         if job.output.step:
             write_step_assembly(
-                result.model, folder / "model" / "assembly.step", job.material.density
+                result.model, folder / "model" / "assembly.step", job.material.density, workers
             )
         if job.output.step and job.output.step_per_panel:
             (folder / "model" / "panels").mkdir(parents=True)

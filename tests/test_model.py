@@ -310,6 +310,47 @@ def test_step_assembly_round_trip(model, tmp_path):
     )
 
 
+def test_step_assembly_in_chunks_is_one_tree_whatever_the_workers(model, tmp_path, monkeypatch):
+    """Written a panel per chunk (so four chunks merge), by one process or two workers: the
+    same entities (OCCT numbers its colours in an order of memory addresses, so they compare
+    renumbered away, as the Ray test does), one root, a node per chunk, every panel and part
+    under it; every entity number defined once."""
+    import re
+
+    import build123d as bd
+
+    from fabpanel.model import step_chunks
+
+    monkeypatch.setattr(step_chunks, "STEP_CHUNK_PANELS", 1)
+    one = write_step_assembly(model, tmp_path / "one.step", workers=1)
+    two = write_step_assembly(model, tmp_path / "two.step", workers=2)
+
+    def body(path):
+        data = re.sub(rb"FILE_NAME\([^;]*;", b"", path.read_bytes())
+        return sorted(re.sub(rb"#\d+", b"#", re.sub(rb"\s+", b"", data)).split(b";"))
+
+    assert body(one) == body(two)
+    text = one.read_bytes()
+    defined = re.findall(rb"(?m)^#(\d+)\s*=", text)
+    assert len(defined) == len(set(defined))
+    assert set(re.findall(rb"#(\d+)", text)) <= set(defined) | {b"1"}  # 'Context #1' names
+    assert text.count(b"PRODUCT('fabpanel'") == 1
+    root = bd.import_step(str(one))
+    assert root.label == "fabpanel"
+    ids = list(model.developed.panel_ids)
+    assert [c.label for c in root.children] == [f"{pid}-{pid}" for pid in ids]
+    for chunk, pid in zip(root.children, ids):
+        (panel,) = chunk.children
+        assert panel.label == pid
+        assert sorted(p.label for p in panel.children) == sorted(p.id for p in model.parts_of(pid))
+    shapes = read_step_parts(one)
+    for part in model.parts:
+        np.testing.assert_allclose(occ.volume(shapes[part.id]), part.volume, rtol=1e-3)
+        np.testing.assert_allclose(
+            occ.mass_properties(shapes[part.id])[1], part.centroid, atol=0.05
+        )
+
+
 def test_cladding_gives_top_sheets_only(developed, job):
     clad = build(developed, job.replace(sandwich={"buildup": "cladding"}), jobs=1)
     assert [p.id for p in clad.parts] == [f"P00{i}-TOP" for i in range(1, 5)]

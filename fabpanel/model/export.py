@@ -56,18 +56,54 @@ def _placed(compound: bd.Compound, model: Model) -> bd.Compound:
     return compound
 
 
-def write_step_assembly(model: Model, path: str | Path, density: float | None = None) -> Path:
+def write_step_assembly(
+    model: Model, path: str | Path, density: float | None = None, workers: int = 1
+) -> Path:
     """One STEP file (AP214, mm) with every part a named, coloured solid, grouped per panel,
     with material and part properties (see the module docstring). ``density``: kg/mm3 for the
-    material record (default: from the parts' mass and volume)."""
+    material record (default: from the parts' mass and volume). Written in chunks of panels by
+    ``workers`` worker processes and merged (:mod:`fabpanel.model.step_chunks`)."""
+    from ..parallel import worker_pool
+    from .step_chunks import chunk_groups, merged_step, write_chunk
+
     path = Path(path)
-    panels = [
-        _panel_compound(model, pid) for pid in model.developed.panel_ids if model.parts_of(pid)
+    ids = [pid for pid in model.developed.panel_ids if model.parts_of(pid)]
+    groups = chunk_groups(ids)
+    x, y, z = (float(v) for v in model.developed.layout.origin)
+    origin = (x, y, z)
+    requests = [
+        (k, len(groups), [(pid, list(model.parts_of(pid))) for pid in group], origin, density)
+        for k, group in enumerate(groups)
     ]
-    _write_step(
-        _placed(bd.Compound(children=panels, label="fabpanel"), model), model.parts, path, density
-    )
-    return path
+    if workers <= 1 or len(requests) == 1:
+        return merged_step((write_chunk(*r) for r in requests), path)
+    with worker_pool(workers, fresh=True) as pool:
+        return merged_step(pool.map(_chunk, requests), path)
+
+
+def _chunk(request: tuple) -> tuple[bytes, bytes]:
+    from .step_chunks import write_chunk
+
+    return write_chunk(*request)
+
+
+def write_step_document(
+    groups: list[tuple[str, list[Part]]],
+    label: str,
+    origin: tuple[float, float, float],
+    path: Path,
+    density: float | None = None,
+) -> None:
+    """One STEP file of the panels ``groups`` ((panel id, its parts) each) under one node
+    ``label`` placed at ``origin`` (the design frame's), under a root ``fabpanel``."""
+    panels = [
+        bd.Compound(children=[_solid(part) for part in parts], label=pid) for pid, parts in groups
+    ]
+    node = bd.Compound(children=panels, label=label)
+    if any(origin):
+        node.location = bd.Location(origin)
+    parts = [part for _, group in groups for part in group]
+    _write_step(bd.Compound(children=[node], label="fabpanel"), parts, path, density)
 
 
 def _write_step(
@@ -145,24 +181,17 @@ def _write_step(
         raise KernelError(f"STEP transfer for {path.name} failed")
     if writer.Write(str(path)) != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise KernelError(f"STEP export to {path} failed")
-    _number_usages(path)
 
 
 def _number_usages(path: Path) -> None:
     """Number the file's assembly usages 1, 2, ... in order: OCCT takes their ids from a
     counter that runs on through the process, so the second file written by one process
     differed from the first in nothing but these ids."""
-    import re
+    import itertools
 
-    count = iter(range(1, 1 << 62))
+    from .step_chunks import number_usages
 
-    def numbered(match: re.Match) -> bytes:
-        # on one line: the writer wraps at 80 characters, where depends on the old id's width
-        rest = re.sub(rb"\n\s*", b"", match.group(1))
-        return b"NEXT_ASSEMBLY_USAGE_OCCURRENCE('%d'%s;" % (next(count), rest)
-
-    data = re.sub(rb"NEXT_ASSEMBLY_USAGE_OCCURRENCE\('\d+'([^;]*);", numbered, path.read_bytes())
-    path.write_bytes(data)
+    path.write_bytes(number_usages(path.read_bytes(), itertools.count(1)))
 
 
 def write_panel_steps(model: Model, folder: str | Path) -> dict[str, str]:
@@ -175,6 +204,7 @@ def write_panel_steps(model: Model, folder: str | Path) -> dict[str, str]:
             continue
         name = f"{pid}.step"
         _write_step(_placed(_panel_compound(model, pid), model), model.parts_of(pid), folder / name)
+        _number_usages(folder / name)
         written[pid] = name
     return written
 
