@@ -16,7 +16,19 @@
 - ``ellipse_shell``: an elliptic shell 12 x 5 m, 2 m rise: its ends round off at 1.04 m radius,
   about one panel, with no corner for the layout's corners to sit on;
 - ``kidney``: a smooth kidney-shaped outline 11 x 5 m with blunt ends and a 1.4 m opening near
-  its waist: no corner anywhere, and an opening only 1.4 panels across.
+  its waist: no corner anywhere, and an opening only 1.4 panels across;
+- ``triangle_roof``: a rounded triangle 14 m (corner radius 1.5 m) with a 2 m opening off the
+  centre: three corners of 60°, the least a quad layout can meet with two panels;
+- ``l_slab``: an L-shaped slab 14 x 11 m with one round and one rectangular opening, its
+  reflex corner cut by a 112 mm facet: a 270° corner and a short facet together;
+- ``saddle_ring``: an annulus (radii 7 and 3 m) on a saddle: a genus-0 surface with two
+  boundary loops and negative curvature all round, no corner anywhere;
+- ``flower``: a dome on a five-lobed outline (r = 6 + 1.3 cos 5θ): concave and convex turns
+  alternate every 36° round the rim;
+- ``crescent``: a crescent moon 12 m long whose tips meet at about 30°, sharper than any panel
+  corner may be: the layout must say the tips are the design's, not its own;
+- ``steep_vault``: a half-cylinder of 4 m radius and 10 m long with two windows in its flanks:
+  walls that stand vertical at the springing, where a plan projection fails.
 
 Generated with the planar-domain helpers of ``examples/shapes.py`` (boundary resampled, a
 triangular lattice inside, Delaunay culled to the domain, lifted by a height function), so the
@@ -148,6 +160,55 @@ def kidney_mesh() -> tuple[np.ndarray, np.ndarray]:
     return _mesh(domain, lambda x, y: 1.5 * np.exp(-(x**2 + y**2) / 30))
 
 
+def triangle_roof_mesh() -> tuple[np.ndarray, np.ndarray]:
+    radius = 1.5
+    corners = np.array([[0.0, 8.0], [-7.0, -4.1], [7.0, -4.1]])
+    inner = Polygon(corners).buffer(-radius, join_style=2)
+    domain = inner.buffer(radius, quad_segs=24).difference(Point(1.0, -0.5).buffer(1.0, 32))
+    return _mesh(domain, lambda x, y: 1.8 * np.exp(-(x**2 + (y - 0.5) ** 2) / 25.0))
+
+
+def l_slab_mesh() -> tuple[np.ndarray, np.ndarray]:
+    outline = Polygon([(0, 0), (14, 0), (14, 5), (6.08, 5), (6.0, 5.08), (6, 11), (0, 11)])
+    domain = outline.difference(Point(3.0, 8.0).buffer(1.1, 32)).difference(
+        box(9.0, 1.8, 11.5, 3.2)
+    )
+    return _mesh(domain, lambda x, y: 0.6 * np.sin(np.pi * x / 14) * np.sin(np.pi * y / 11))
+
+
+def saddle_ring_mesh() -> tuple[np.ndarray, np.ndarray]:
+    domain = Point(0, 0).buffer(7.0, quad_segs=64).difference(Point(0, 0).buffer(3.0, 32))
+    return _mesh(domain, lambda x, y: 0.04 * (x**2 - y**2))
+
+
+def flower_mesh() -> tuple[np.ndarray, np.ndarray]:
+    t = np.linspace(0, 2 * np.pi, 300, endpoint=False)
+    radius = 6.0 + 1.3 * np.cos(5 * t)
+    domain = Polygon(np.column_stack([radius * np.cos(t), radius * np.sin(t)]))
+    return _mesh(domain, lambda x, y: 2.5 * (1 - (x**2 + y**2) / 55.0))
+
+
+def crescent_mesh() -> tuple[np.ndarray, np.ndarray]:
+    outer = Point(0, 0).buffer(6.0, quad_segs=64)
+    bite = Point(3.2, 0).buffer(5.2, quad_segs=64)
+    domain = outer.difference(bite)
+    return _mesh(domain, lambda x, y: 1.2 * (1 - (x**2 + y**2) / 40.0))
+
+
+def steep_vault_mesh() -> tuple[np.ndarray, np.ndarray]:
+    # the vault unrolled: u along the arc (0..pi r), v along the axis; windows cut in the flanks
+    radius, length = 4.0, 10.0
+    arc = math.pi * radius
+    domain = box(0, 0, arc, length)
+    for u, v in ((0.25 * arc, 3.0), (0.75 * arc, 7.0)):
+        domain = domain.difference(box(u - 0.8, v - 1.0, u + 0.8, v + 1.0))
+    points, triangles = _mesh(domain, lambda x, y: np.zeros_like(x))
+    angle = points[:, 0] / radius
+    return np.column_stack(
+        [radius * np.cos(angle), points[:, 1], radius * np.sin(angle)]
+    ), triangles
+
+
 SHAPES = {
     "canopy4": canopy4_mesh,
     "dome_oculus": dome_oculus_mesh,
@@ -157,6 +218,12 @@ SHAPES = {
     "quarry": quarry_mesh,
     "ellipse_shell": ellipse_shell_mesh,
     "kidney": kidney_mesh,
+    "triangle_roof": triangle_roof_mesh,
+    "l_slab": l_slab_mesh,
+    "saddle_ring": saddle_ring_mesh,
+    "flower": flower_mesh,
+    "crescent": crescent_mesh,
+    "steep_vault": steep_vault_mesh,
 }
 
 

@@ -364,3 +364,65 @@ def test_auto_replaces_a_poor_grid_on_a_four_sided_strip_by_the_field_layout(tmp
     auto = layout.metrics["auto"]
     assert auto["chosen"] == "field" and auto["scores"]["field"] > auto["scores"]["grid"]
     assert not [i for i in layout.issues if i.severity == "error"]
+
+
+# ---------------------------------------------------------------------------------------------
+# a tip of the design outline sharper than 45° is the design's, not the layout's
+
+
+def _triangle(tip_deg: float, leg: float = 3000.0) -> tuple[Surface, np.ndarray]:
+    """A planar isosceles triangle (mm) with its tip at the origin, meshed with its edges
+    sampled every 100 mm; and its three corners."""
+    half = np.radians(tip_deg / 2)
+    corners = np.array([[0.0, 0.0], [leg * np.cos(half), -leg * np.sin(half)]])
+    corners = np.vstack([corners, [leg * np.cos(half), leg * np.sin(half)]])
+    ring = []
+    for a, b in zip(corners, np.roll(corners, -1, axis=0), strict=True):
+        count = int(np.ceil(np.linalg.norm(b - a) / 100.0))
+        ring.append(a + np.linspace(0, 1, count, endpoint=False)[:, None] * (b - a))
+    ring = np.vstack(ring)
+    points = np.vstack([ring, corners.mean(axis=0)])
+    centre = len(ring)
+    tri = np.array([[i, (i + 1) % centre, centre] for i in range(centre)])
+    vertices = np.column_stack([points, np.zeros(len(points))])
+    surface = Surface(vertices, tri, (np.arange(centre),), Path("tri.obj"), "obj", "mm")
+    return surface, np.column_stack([corners, np.zeros(3)])
+
+
+def _three_quads(corners: np.ndarray) -> PanelLayout:
+    """A triangle split into three quads at its centroid and edge midpoints."""
+    mids = 0.5 * (corners + np.roll(corners, -1, axis=0))
+    vertices = np.vstack([corners, mids, corners.mean(axis=0)])
+    quads = np.array([[0, 3, 6, 5], [1, 4, 6, 3], [2, 5, 6, 4]])
+    return PanelLayout(vertices, quads, ("P001", "P002", "P003"), "layout")
+
+
+def test_a_tip_sharper_than_45_degrees_is_named_as_the_designs():
+    surface, corners = _triangle(30.0)
+    layout = _three_quads(corners)
+    measures = gate_measures(layout, surface, 1000.0)
+    assert measures["outline_tip_corners"] == [[0, 0]]
+    assert measures["outline_tip_angles_deg"][0] == pytest.approx(30.0, abs=0.5)
+    assert measures["outline_tip_points_mm"] == [[0.0, 0.0, 0.0]]
+    issues = {i.code: i for i in gate_issues(layout, measures, _job())}
+    tip = issues["outline-sharp-corner"]
+    assert tip.item == "P001" and "30°" in tip.message and "(0, 0, 0) mm" in tip.message
+    # the 30° corner is not listed again among the layout's own bad corners
+    corner = issues.get("layout-corner-angle")
+    assert corner is None or "P001" not in corner.message
+
+
+def test_a_sharp_panel_corner_on_a_straight_outline_is_the_layouts():
+    surface, corners = _triangle(60.0)
+    layout = _three_quads(corners)
+    # the centre moved so that two panels meet at the first edge's midpoint at 150° and 30°
+    along = (corners[1] - corners[0]) / np.linalg.norm(corners[1] - corners[0])
+    inward = np.array([-along[1], along[0], 0.0])
+    vertices = layout.vertices.copy()
+    vertices[6] = vertices[3] + 600.0 * (np.cos(np.radians(30)) * along + 0.5 * inward)
+    layout = PanelLayout(vertices, layout.quads, layout.panel_ids, "layout")
+    measures = gate_measures(layout, surface, 1000.0)
+    assert measures["corner_angle_deg"][0] == pytest.approx(30.0, abs=0.01)
+    assert measures["outline_tip_corners"] == []
+    codes = {i.code for i in gate_issues(layout, measures, _job())}
+    assert "layout-corner-angle" in codes and "outline-sharp-corner" not in codes

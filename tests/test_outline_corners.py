@@ -55,9 +55,10 @@ def test_a_smooth_outline_has_no_corner_and_keeps_every_vertex():
     assert not len(found.cut_corners)
 
 
-def test_two_real_corners_further_apart_than_merge_both_stay():
-    # a slot 400 mm wide: its two corners at the end are 400 mm apart, more than merge
-    slot = np.array([[0.0, 0.0], [4000.0, 0.0], [4000.0, 400.0], [0.0, 400.0]])
+def test_two_real_corners_further_apart_than_twice_merge_both_stay():
+    # a slot 700 mm wide: its two corners at the end are 700 mm apart, more than 2 x merge (the
+    # shortest curve the mesher can give two edges of at least merge)
+    slot = np.array([[0.0, 0.0], [4000.0, 0.0], [4000.0, 700.0], [0.0, 700.0]])
     points = _resampled(slot, 100.0)
     points = np.vstack([points, slot])  # the true corners sampled too, sorted back in order
     closed = np.vstack([slot, slot[:1]])
@@ -76,3 +77,24 @@ def test_two_real_corners_further_apart_than_merge_both_stay():
     corners = points[found.loops[0][found.corners[0]]]
     np.testing.assert_allclose(np.sort(corners, axis=0), np.sort(slot, axis=0), atol=1e-9)
     assert not len(found.cut_corners)  # exact corners: nothing was cut
+
+
+def test_a_facet_shorter_than_twice_merge_is_one_corner():
+    # a 90 degree corner cut by a 450 mm facet (two 45 degree turns): longer than merge, so
+    # each end is a corner on its own, but a curve that short would get two 225 mm edges
+    outline = np.array([[0.0, 0.0], [6000.0, 0.0], [6000.0, 4000.0], [318.2, 4000.0]])
+    outline = np.vstack([outline, [[0.0, 3681.8]]])
+    points = _resampled(outline, 100.0)
+    found = outline_corners(_outline(points), points, corner_angle=30.0, merge=300.0)
+    corners = points[found.loops[0][found.corners[0]]]
+    assert len(corners) == 4
+    near_cut = np.linalg.norm(corners - [0.0, 4000.0], axis=1) < 460.0
+    assert near_cut.sum() == 1  # one corner where the facet was, at one of its ends
+    cut = points[found.cut_corners]  # (every corner is cut by the resampling here)
+    assert (np.linalg.norm(cut - [0.0, 4000.0], axis=1) < 460.0).sum() == 1
+    kept = points[found.loops[0]]
+    on_facet = (np.abs(kept[:, 1] - kept[:, 0] - 3681.8) < 1.0) & (kept[:, 0] < 318.2)
+    assert on_facet.sum() <= 2  # the facet's inner samples left out
+    # at merge = 1 mm the facet keeps both its corners
+    apart = outline_corners(_outline(points), points, corner_angle=30.0, merge=1.0)
+    assert apart.corners[0].sum() >= 5

@@ -7,8 +7,12 @@ vertex by vertex, both are corners, the mesher puts a curve end at each and the 
 ``corner_angle`` within a short stretch (``merge``, tied to the shortest edge the layout gates
 allow); the sharpest vertex of the stretch is the corner, and the stretch's other vertices near
 it are left out of the outline the mesher gets (a curve through them would bend sharply
-without a corner). Angles are measured in the conformal flattening, which keeps them;
-lengths on the surface.
+without a corner). Two corners closer than twice that along the outline (a facet longer than
+``merge``, each end turning on its own) are one corner too: the quasi-structured mesher splits
+its triangles into quads, so a boundary curve always gets an even number of edges, at least
+two, and a curve shorter than ``2 x merge`` gives edges shorter than the gates allow (a 112 mm
+facet cutting a 90° corner at 0.32 m panels made two 56 mm edges). Angles are measured in the
+conformal flattening, which keeps them; lengths on the surface.
 """
 
 from __future__ import annotations
@@ -48,10 +52,11 @@ def outline_corners(
             np.abs(_window_sums(turning, arc, merge)) > corner_angle
         )
         corner, dropped = _sharpest_of_each_run(candidate, turning, arc, merge)
+        corner, dropped = _one_corner_of_close_pairs(corner, dropped, turning, arc, 2 * merge)
         keep = ~dropped
         loops.append(loop[keep])
         corners.append(corner[keep])
-        cut.append(loop[_cut_of(corner, dropped, turning, arc, merge)])
+        cut.append(loop[_cut_of(corner, dropped, turning, arc, 2 * merge)])
     return OutlineCorners(
         loops=tuple(loops), corners=tuple(corners), cut_corners=np.concatenate(cut)
     )
@@ -119,3 +124,32 @@ def _sharpest_of_each_run(
         if index >= 0 and candidate[index]:
             run.append(int(index))
     return corner, dropped
+
+
+def _one_corner_of_close_pairs(
+    corner: np.ndarray, dropped: np.ndarray, turning: np.ndarray, arc: np.ndarray, apart: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Corners and left-out vertices after merging every pair of consecutive corners less
+    than ``apart`` from each other along the loop: the one turning more stays, the other and
+    the vertices between them are left out. Pairs are taken shortest first, so a run of close
+    corners keeps its sharpest."""
+    corner, dropped = corner.copy(), dropped.copy()
+    total, n = arc[-1], len(corner)
+    while True:
+        ids = np.flatnonzero(corner)
+        if len(ids) < 2:
+            return corner, dropped
+        following = np.roll(ids, -1)
+        gaps = (arc[following] - arc[ids]) % total
+        shortest = int(np.argmin(gaps))
+        if gaps[shortest] >= apart:
+            return corner, dropped
+        first, second = int(ids[shortest]), int(following[shortest])
+        kept, lost = (
+            (first, second) if abs(turning[first]) >= abs(turning[second]) else (second, first)
+        )
+        corner[lost] = False
+        between = (first + 1 + np.arange((second - first - 1) % n)) % n
+        dropped[between] = True
+        dropped[lost] = True
+        dropped[kept] = False

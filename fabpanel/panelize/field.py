@@ -354,7 +354,7 @@ def _cut_corner_issues(surface: Surface, outline: OutlineCorners) -> tuple[Issue
         Issue(
             "outline-cut-corner",
             f"{len(at)} corner(s) of the outline turn through short facets or a tight "
-            f"rounding (within 0.3 x panel_size), at {where}{more} mm; each is taken as one "
+            f"rounding (within 0.6 x panel_size), at {where}{more} mm; each is taken as one "
             f"sharp corner of the layout, so the sheets do not follow the facets or the "
             f"rounding exactly (boundary_deviation_mm, after the develop stage, shows by how "
             f"much); if the corner is meant sharp, give the mesh a vertex at it",

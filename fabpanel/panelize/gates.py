@@ -9,6 +9,7 @@ panels / (area / panel_size²)     ≤ 1.3                              warning 
 edges in 0.5-1.25 x panel_size    ≥ 90 %                             warning    layout-edge-band
 shortest edge                     ≥ 0.3 x panel_size                 warning    layout-short-edge
 corner angles                     all in 45-135°, ≥ 95 % in 60-120°  warning    layout-corner-angle
+  (at a design tip under 45°)     (the design's own: no layout helps)  warning    outline-sharp-corner
 narrowest panel (mid-line)        ≥ ``[panelize] min_panel_width``   error      layout-narrow-panel
 quads form a manifold surface     Euler characteristic = surface's   error      layout-topology
 ================================  =================================  =========  =============
@@ -16,6 +17,12 @@ quads form a manifold surface     Euler characteristic = surface's   error      
 A panel narrower than ``min_panel_width`` (default 0.3 x panel_size) cannot be built: the ribs
 and corner stiffeners of its two long sides meet. The score that ``method = "auto"`` uses to
 choose between layouts is :func:`layout_score`.
+
+A tip of the design outline sharper than 45° (a crescent's horns) forces a panel corner under
+45° whatever the layout: the panel that covers the tip has the tip's angle. Such corners are
+told apart (``outline_tip_corners``) and reported as ``outline-sharp-corner``, which names the
+tip and its angle and asks for the design to change, not the layout; they count in the corner
+measures all the same.
 """
 
 from __future__ import annotations
@@ -25,7 +32,8 @@ import numpy as np
 from ..data import PanelLayout, Surface
 from ..errors import Issue
 from ..job import Job
-from .quality import corner_angles
+from .boundary import DesignBoundary
+from .quality import corner_angles, vertex_valences
 
 #: thresholds (fractions of the panel size, degrees, shares)
 MAX_COUNT_RATIO = 1.3
@@ -41,6 +49,10 @@ MIN_WIDTH = 0.3
 HISTOGRAM_BINS = (0.0, 0.3, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, np.inf)
 #: panels named in one message
 NAMED = 8
+#: the outline's own angle at a tip is measured between chords this long (x panel size)
+TIP_REACH = 0.15
+#: slack on the tip's measured angle: chords across a curved outline read a little off
+TIP_SLACK_DEG = 3.0
 
 
 def euler_characteristic(vertices: int, faces: np.ndarray) -> int:
@@ -93,7 +105,55 @@ def gate_measures(layout: PanelLayout, surface: Surface, target: float) -> dict:
         "euler_characteristic": euler_characteristic(len(layout.vertices), layout.quads),
         "surface_euler_characteristic": euler_characteristic(len(surface.vertices), surface.faces),
         "manifold": bool(side_uses.max() <= 2) if len(side_uses) else True,
+        **_outline_tips(layout, surface, angles, target),
     }
+
+
+def _outline_tips(
+    layout: PanelLayout, surface: Surface, angles: np.ndarray, target: float
+) -> dict[str, list]:
+    """The panel corners under 45° that the design outline forces: a boundary vertex that only
+    one panel touches, where the outline itself turns to less than 45° (+ slack), measured
+    between chords of ``TIP_REACH x target`` along the design boundary. JSON-ready: the
+    (panel, corner) pairs and the outline's angle at each."""
+    sharp = np.argwhere(angles < CORNER_LIMITS[0])
+    if not len(sharp) or not surface.boundary_loops:
+        return _no_tips()
+    vertex = layout.quads[sharp[:, 0], sharp[:, 1]]
+    _, on_boundary = vertex_valences(layout.quads, len(layout.vertices))
+    panels_at = np.bincount(layout.quads.ravel(), minlength=len(layout.vertices))
+    alone = on_boundary[vertex] & (panels_at[vertex] == 1)
+    sharp, vertex = sharp[alone], vertex[alone]
+    if not len(sharp):
+        return _no_tips()
+    design = DesignBoundary(surface)
+    tip = layout.vertices[vertex]
+    _, _, loop, s = design.locate(tip)
+    reach = TIP_REACH * target
+    outline = np.array(
+        [
+            _angle_between(
+                design.at(int(k), np.array([(at - reach) % design.loop_length[k]]))[0] - point,
+                design.at(int(k), np.array([(at + reach) % design.loop_length[k]]))[0] - point,
+            )
+            for k, at, point in zip(loop, s, tip, strict=True)
+        ]
+    )
+    forced = outline < CORNER_LIMITS[0] + TIP_SLACK_DEG
+    return {
+        "outline_tip_corners": sharp[forced].tolist(),
+        "outline_tip_angles_deg": [round(float(a), 1) for a in outline[forced]],
+        "outline_tip_points_mm": np.round(tip[forced] + surface.origin, 1).tolist(),
+    }
+
+
+def _no_tips() -> dict[str, list]:
+    return {"outline_tip_corners": [], "outline_tip_angles_deg": [], "outline_tip_points_mm": []}
+
+
+def _angle_between(a: np.ndarray, b: np.ndarray) -> float:
+    cosine = np.dot(a, b) / max(float(np.linalg.norm(a) * np.linalg.norm(b)), 1e-300)
+    return float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
 
 
 def _within(values: np.ndarray, limits: tuple[float, float]) -> np.ndarray:
@@ -171,7 +231,7 @@ def gate_issues(layout: PanelLayout, measures: dict, job: Job) -> tuple[Issue, .
             )
         )
     issues += _edge_issues(layout, measures, target, fix)
-    issues += _corner_issues(layout, corners, fix)
+    issues += _corner_issues(layout, corners, measures, fix)
     return tuple(issues)
 
 
@@ -202,19 +262,53 @@ def _edge_issues(layout: PanelLayout, measures: dict, target: float, fix: str) -
     return issues
 
 
-def _corner_issues(layout: PanelLayout, corners: np.ndarray, fix: str) -> list[Issue]:
+def _corner_issues(
+    layout: PanelLayout, corners: np.ndarray, measures: dict, fix: str
+) -> list[Issue]:
     angles = corner_angles(corners)
-    bad = np.flatnonzero((~_within(angles, CORNER_LIMITS)).any(axis=1))
-    good_share = float(np.mean(_within(angles, CORNER_GOOD)))
+    outside = ~_within(angles, CORNER_LIMITS)
+    tips = np.asarray(measures.get("outline_tip_corners", []), dtype=int).reshape(-1, 2)
+    issues = _tip_issues(layout, tips, measures)
+    outside[tips[:, 0], tips[:, 1]] = False  # the design's, reported above
+    bad = np.flatnonzero(outside.any(axis=1))
+    # the tips' corners cannot be in 60-120° either: the share is taken over the others
+    counted = np.ones(angles.shape, dtype=bool)
+    counted[tips[:, 0], tips[:, 1]] = False
+    good_share = float(np.mean(_within(angles, CORNER_GOOD)[counted])) if counted.any() else 1.0
     if not len(bad) and good_share >= MIN_GOOD_CORNERS:
-        return []
-    return [
+        return issues
+    return issues + [
         Issue(
             "layout-corner-angle",
             f"corner angles {angles.min():.0f}-{angles.max():.0f}°, {good_share:.0%} within "
             f"60-120° (wanted all within 45-135° and {MIN_GOOD_CORNERS:.0%} within 60-120°)"
             + (f"; panels beyond 45-135°: {_names(layout, bad)}" if len(bad) else "")
+            + (" (the outline's sharp tips apart)" if len(tips) else "")
             + f"; {fix}",
             layout.panel_ids[int(bad[0])] if len(bad) else "",
+        )
+    ]
+
+
+def _tip_issues(layout: PanelLayout, tips: np.ndarray, measures: dict) -> list[Issue]:
+    if not len(tips):
+        return []
+    where = "; ".join(
+        f"{layout.panel_ids[panel]} at ({', '.join(f'{c:.0f}' for c in point)}) mm, {angle:.0f}°"
+        for panel, angle, point in zip(
+            tips[:NAMED, 0],
+            measures["outline_tip_angles_deg"],
+            measures["outline_tip_points_mm"],
+            strict=False,
+        )
+    )
+    return [
+        Issue(
+            "outline-sharp-corner",
+            f"the design outline comes to {len(tips)} tip(s) sharper than 45°, so the panel "
+            f"covering each has a corner as sharp, whatever the layout or panel size: {where}; "
+            f"round the tip off or cut it square in the design (or accept the tip panel: check "
+            f"that its ribs and stiffeners fit)",
+            layout.panel_ids[int(tips[0, 0])],
         )
     ]
