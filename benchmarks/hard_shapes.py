@@ -27,6 +27,9 @@
   alternate every 36° round the rim;
 - ``crescent``: a crescent moon 12 m long whose tips meet at about 30°, sharper than any panel
   corner may be: the layout must say the tips are the design's, not its own;
+- ``slab_hole``: a slab 10.4 x 4.7 m (under five panels across) with 1.13 m rounded corners and
+  a round opening 0.91 m across, smaller than a panel: the layout can neither ring the opening
+  nor turn the corners with one panel;
 - ``steep_vault``: a half-cylinder of 4 m radius and 10 m long with two windows in its flanks:
   walls that stand vertical at the springing, where a plan projection fails.
 
@@ -209,6 +212,18 @@ def steep_vault_mesh() -> tuple[np.ndarray, np.ndarray]:
     ), triangles
 
 
+def slab_hole_mesh() -> tuple[np.ndarray, np.ndarray]:
+    width, depth, radius = 10.4, 4.7, 1.13
+    slab = box(-width / 2 + radius, -depth / 2 + radius, width / 2 - radius, depth / 2 - radius)
+    domain = slab.buffer(radius, quad_segs=16).difference(Point(0.58, 0.51).buffer(0.455, 24))
+    return _mesh(
+        domain,
+        lambda x, y: (
+            1.05 * np.exp(-(x**2 + y**2) / 27.0) - 0.01 * x * y - 0.011 * x**2 + 0.012 * y**2
+        ),
+    )
+
+
 SHAPES = {
     "canopy4": canopy4_mesh,
     "dome_oculus": dome_oculus_mesh,
@@ -224,6 +239,7 @@ SHAPES = {
     "flower": flower_mesh,
     "crescent": crescent_mesh,
     "steep_vault": steep_vault_mesh,
+    "slab_hole": slab_hole_mesh,
 }
 
 

@@ -163,8 +163,9 @@ def test_auto_keeps_a_field_layout_that_passes_every_gate_without_making_the_oth
 
 
 def test_auto_compares_both_methods_when_the_field_layout_fails_a_gate(tmp_path):
-    # the kidney's 1.4 m opening leaves 93 % of the field layout's corners in 60-120°
-    layout = fp.panelize(_hard_shape("kidney", tmp_path), _job("1 m"))
+    # the slab's 0.9 m opening and 1.1 m roundings leave 90 % of the field layout's corners
+    # in 60-120°
+    layout = fp.panelize(_hard_shape("slab_hole", tmp_path), _job("1 m"))
     auto = layout.metrics["auto"]
     assert set(auto["scores"]) == {"skeleton", "field"}
     assert auto["chosen"] == layout.method == "field"
@@ -302,15 +303,14 @@ def test_holding_the_gate_bands_passes_every_gate_where_squaring_alone_did_not(t
 
 def test_a_layout_corner_on_a_smooth_lobe_is_dissolved(tmp_path):
     # gmsh puts a boundary vertex of one panel on the funnel's 2.5 m lobe: 159-165° however
-    # the outline nodes slide; dissolved, its inner vertex has three panels
+    # the outline nodes slide; dissolved, its inner vertex has three panels (one or two such
+    # vertices, by the size factor gmsh's calibration settles on)
     layout = fp.panelize(_hard_shape("funnel", tmp_path), _job("1 m", method="field"))
-    assert layout.metrics["field"]["relaxation"]["false_corners"] == {
-        "dissolved": 1,
-        "kept": True,
-    }
+    false_corners = layout.metrics["field"]["relaxation"]["false_corners"]
+    assert false_corners["dissolved"] >= 1 and false_corners["kept"]
     gates = layout.metrics["gates"]
-    assert gates["corners_in_45_135"] == 1.0  # measured 61-134°
-    assert gates["corners_in_60_120"] >= 0.95  # measured 0.963
+    assert gates["corners_in_45_135"] == 1.0  # measured 60-127°
+    assert gates["corners_in_60_120"] >= 0.95  # measured 0.952
     assert gates["euler_characteristic"] == gates["surface_euler_characteristic"]
     assert gates["edges_in_band"] >= 0.9 and gates["shortest_edge_vs_panel_size"] >= 0.3
     assert gates["count_ratio"] <= 1.3  # 94 panels for 76.3 m²

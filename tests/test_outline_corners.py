@@ -98,3 +98,96 @@ def test_a_facet_shorter_than_twice_merge_is_one_corner():
     # at merge = 1 mm the facet keeps both its corners
     apart = outline_corners(_outline(points), points, corner_angle=30.0, merge=1.0)
     assert apart.corners[0].sum() >= 5
+
+
+def _rounded_rectangle(width: float, depth: float, radius: float, step: float) -> np.ndarray:
+    """A rectangle's outline with rounded corners, sampled about every ``step`` mm."""
+    from shapely.geometry import box
+
+    core = box(-width / 2 + radius, -depth / 2 + radius, width / 2 - radius, depth / 2 - radius)
+    ring = np.asarray(core.buffer(radius, quad_segs=64).exterior.coords)[:-1]
+    return _resampled(ring, step)
+
+
+def test_a_rounding_tighter_than_a_panel_is_one_corner_in_its_middle():
+    # 90 degree roundings of 800 mm radius: 1257 mm of arc, turning 21 degrees within the
+    # 300 mm that makes a corner of a cut, 72 within a panel
+    points = _rounded_rectangle(8000.0, 5000.0, 800.0, 100.0)
+    without = outline_corners(_outline(points), points, corner_angle=30.0, merge=300.0)
+    assert not without.corners[0].any()
+    found = outline_corners(_outline(points), points, 30.0, 300.0, panel_size=1000.0)
+    corners = points[found.loops[0][found.corners[0]]]
+    assert len(corners) == 4
+    # each in the middle of its rounding: on the diagonal through the rounding's centre
+    middles = np.array([3200.0, 1700.0]) + 800.0 * np.array([np.sqrt(0.5), np.sqrt(0.5)])
+    np.testing.assert_allclose(np.sort(np.abs(corners), axis=0)[0], middles, atol=60.0)
+    # the rounding's vertices within half a panel of the corner are left out of the outline
+    kept = points[found.loops[0]]
+    gap = np.linalg.norm(kept[:, None, :] - corners[None, :, :], axis=2).min(axis=1)
+    assert gap[gap > 0].min() > 400.0
+
+
+def test_wide_roundings_and_rounded_ends_stay_smooth():
+    # 2 m roundings at 1 m panels turn 29 degrees within a panel: smooth
+    wide = _rounded_rectangle(8000.0, 6000.0, 2000.0, 100.0)
+    found = outline_corners(_outline(wide), wide, 30.0, 300.0, panel_size=1000.0)
+    assert not found.corners[0].any()
+    # a stadium's 600 mm round ends turn 180 degrees within two panels: no one corner takes it
+    stadium = _rounded_rectangle(6000.0, 1200.0, 600.0, 100.0)
+    found = outline_corners(_outline(stadium), stadium, 30.0, 300.0, panel_size=1000.0)
+    assert not found.corners[0].any()
+
+
+def _plate_with_openings(openings: list[tuple[float, float, float]]) -> Surface:
+    """A planar 12 x 8 m plate (mm) with round openings (x, y, radius), meshed by Delaunay."""
+    from scipy.spatial import Delaunay
+
+    outer = _resampled(np.array([[0, 0], [12000, 0], [12000, 8000], [0, 8000]], float), 200.0)
+    rings = []
+    for x, y, r in openings:
+        count = max(16, int(2 * np.pi * r / 150.0))
+        t = np.linspace(0, 2 * np.pi, count, endpoint=False)[::-1]  # clockwise: a hole
+        rings.append(np.column_stack([x + r * np.cos(t), y + r * np.sin(t)]))
+    grid = np.array([(x, y) for x in range(100, 12000, 250) for y in range(100, 8000, 250)], float)
+    clear = np.ones(len(grid), dtype=bool)
+    for x, y, r in openings:
+        clear &= np.hypot(grid[:, 0] - x, grid[:, 1] - y) > r + 120.0
+    points = np.vstack([outer, *rings, grid[clear]])
+    tri = Delaunay(points).simplices
+    centre = points[tri].mean(axis=1)
+    inside = np.ones(len(tri), dtype=bool)
+    for x, y, r in openings:
+        inside &= np.hypot(centre[:, 0] - x, centre[:, 1] - y) > r
+    tri = tri[inside]
+    loops, start = [np.arange(len(outer))], len(outer)
+    for ring in rings:
+        loops.append(start + np.arange(len(ring)))
+        start += len(ring)
+    vertices = np.column_stack([points, np.zeros(len(points))])
+    return Surface(vertices, tri, tuple(loops), Path("plate.obj"), "obj", "mm")
+
+
+def test_a_small_round_opening_reaches_the_mesher_as_a_square_set_to_the_field():
+    from fabpanel.panelize.corners import squared_small_openings
+
+    surface = _plate_with_openings([(4000.0, 4000.0, 450.0), (8500.0, 4000.0, 1500.0)])
+    flat = surface.vertices[:, :2]
+    found = outline_corners(surface, flat, 30.0, 300.0, panel_size=1000.0)
+    kept, mesher = squared_small_openings(found, surface, flat, 1000.0)
+    # the 0.9 m opening (2.8 m round, under 5 panel sizes): four corners a quarter apart
+    square = flat[mesher.loops[1]]
+    assert len(square) == 4 and mesher.corners[1].all()
+    np.testing.assert_array_equal(np.sort(kept.loops[1][kept.corners[1]]), np.sort(mesher.loops[1]))
+    sides = np.linalg.norm(np.roll(square, -1, axis=0) - square, axis=1)
+    # (corners are vertices of the 18-gon, so a quarter round is 4 or 5 of its sides)
+    np.testing.assert_allclose(sides, 450.0 * np.sqrt(2), rtol=0.12)
+    # set square to the plate's sides (the field of the outline): corners on the diagonals
+    directions = np.degrees(np.arctan2(square[:, 1] - 4000.0, square[:, 0] - 4000.0)) % 90.0
+    np.testing.assert_allclose(directions, 45.0, atol=8.0)
+    # the 3 m opening (9.4 m round) stays a smooth loop, every vertex given to the mesher
+    assert not mesher.corners[2].any() and len(mesher.loops[2]) == len(surface.boundary_loops[2])
+    # with no small opening, both outlines are the one found
+    plain = _plate_with_openings([(6000.0, 4000.0, 1500.0)])
+    found = outline_corners(plain, plain.vertices[:, :2], 30.0, 300.0, panel_size=1000.0)
+    kept, mesher = squared_small_openings(found, plain, plain.vertices[:, :2], 1000.0)
+    assert kept is found and mesher is found

@@ -134,3 +134,23 @@ def test_a_grid_that_misses_a_singular_point_says_so():
     missed = [i for i in layout.issues if i.code == "singular-point-missed"]
     assert missed and missed[0].severity == "warning"
     assert "1 of 1 singular_points" in missed[0].message and '"field"' in missed[0].message
+
+
+def test_a_tall_short_vault_is_four_sided_by_its_tangent_planes(tmp_path):
+    # a half cylinder 8 m across and 2.4 m long: its outline's best-fitting plane is that of
+    # its end arches, which sees the two straight sides end on (zero length, no corner)
+    from conftest import grid_surface
+
+    from fabpanel.panelize.grid import is_four_sided
+
+    phi = np.linspace(0.0, np.pi, 97)
+    x = np.array([0.0, 2.4])
+    xx, pp = np.meshgrid(x, phi, indexing="ij")
+    points = np.stack([xx, 4.0 * np.cos(pp), 4.0 * np.sin(pp)], axis=-1)
+    surface = grid_surface(tmp_path, "tall-vault", points)
+    assert is_four_sided(surface, 30.0)
+    job = Job.from_dict(
+        {"input": {"path": "x.obj", "units": "m"}, "panelize": {"panel_size": "1.2 m"}}
+    )
+    layout = panelize(surface, job)
+    assert layout.method == "grid" and len(layout.quads) == 20

@@ -254,15 +254,31 @@ def test_force_replaces_only_after_success(tmp_path):
     assert (out / "manifest.json").is_file()  # the old run is still there
 
 
+def _half_cylinder_obj(folder: Path, radius: float, length: float, segments: int) -> Path:
+    """A half cylinder (axis x, metres) as a quad mesh: ``segments`` round the arc, one
+    quad along its length."""
+    phi = np.linspace(0.0, np.pi, segments + 1)
+    rows = [
+        f"v {x} {radius * np.cos(p):.9f} {radius * np.sin(p):.9f}"
+        for x in (0.0, length)
+        for p in phi
+    ]
+    n = segments + 1
+    faces = [f"f {i + 1} {n + i + 1} {n + i + 2} {i + 2}" for i in range(segments)]
+    path = folder / "half-cylinder.obj"
+    path.write_text("\n".join(rows + faces) + "\n")
+    return path
+
+
 def test_mesh_input_runs_end_to_end(tmp_path):
+    # a 4 m half cylinder 2.4 m long, its arc a 96-gon as in the example vault's mesh
+    path = _half_cylinder_obj(tmp_path, 4.0, 2.4, 96)
     job = fp.Job.for_input(
-        EXAMPLES / "barrel-vault.obj",
-        units="m",
-        panelize={"grid_u": 6, "grid_v": 10},
-        cutting={"nest_time": "0 s"},
+        path, units="m", panelize={"panel_size": "1.2 m"}, cutting={"nest_time": "0 s"}
     )
     result = fp.run(job, out_dir=tmp_path / "out", jobs=2, until="build")
-    assert len(result.model.parts) == 10 * 60
+    assert result.layout.method == "grid" and len(result.layout.quads) == 20  # 10 x 2
+    assert len(result.model.parts) == 10 * 20
     assert not [i for i in result.issues if i.severity == "error"]
     assert result.flat is None
     assert set(result.developed.classes) == {"single-curved"}

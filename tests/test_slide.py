@@ -107,3 +107,15 @@ def test_gradient_with_sliding_nodes_matches_finite_differences():
         return _energy_and_gradient(v, *args)[1]
 
     assert check_grad(energy, gradient, x, epsilon=1e-7) < 1e-4 * np.linalg.norm(gradient(x))
+
+
+def test_a_parameter_a_rounding_error_past_a_loops_end_stays_on_that_loop():
+    # the foot of a node at the very end of the last loop came out 1e-12 past it, and the
+    # node's bounds were looked up for a third loop that does not exist
+    track = _track()
+    end = track.spans[:, 1]
+    np.testing.assert_array_equal(track.loop_of(end + 1e-9), [0, 1])
+    np.testing.assert_array_equal(track.loop_of(track.spans[:, 0]), [0, 1])
+    square_side = track.bounds(np.array([end[0] - 0.1]))[0]
+    assert square_side[1] <= end[0]
+    assert track.bounds(np.array([end[1] + 1e-9])) == [(None, None)]  # the circle wraps

@@ -11,9 +11,11 @@ Methods:
   mesher, on a conformal flattening of the surface (:mod:`.field`).
 - ``layout``: a quad mesh drawn by hand, mapped onto the surface.
 
-``auto`` picks ``grid`` for four-sided surfaces without openings; otherwise it makes both a
-``skeleton`` and a ``field`` layout and keeps the one with the better score by the layout gates
-(:func:`.gates.layout_score`), recording both scores and the reason in ``metrics["auto"]``.
+``auto`` picks ``grid`` for four-sided surfaces without openings (and the field layout where
+the grid fails a gate and the field scores better); otherwise the ``field`` layout where it
+passes every gate, and where it fails one, the ``skeleton`` layout too (up to 500 field
+panels), keeping the one with the better score by the layout gates
+(:func:`.gates.layout_score`), recording the scores and the reason in ``metrics["auto"]``.
 Where ``singular_points`` are given it picks ``field``, the one method that makes every point a
 vertex. Every layout is measured against the gates (:mod:`.gates`), whatever made it, and a
 singular point that did not become a vertex is a ``singular-point-missed`` warning.
@@ -123,8 +125,23 @@ def _first_passing(
             first = _gated(_layout_by_method(methods[0], surface, job, query), surface, job)
         except GeometryError:
             return _better_layout(surface, job, query, methods)
-    if _fails_a_gate(first):
+    if _fails_a_gate(first) and _worth_a_skeleton(first, methods):
         return _better_layout(surface, job, query, methods, {methods[0]: first})
+    if _fails_a_gate(first):
+        failed = ", ".join(_failed_gates(first))
+        reason = (
+            f"{methods[0]} fails {failed}; {methods[1]} not tried: on {len(first.quads)} panels "
+            f"(more than {SKELETON_CHALLENGE_PANELS}) its fold-free smoothing takes 10-30 s, "
+            f"and it met no gate that the field layout missed on any benchmark shape"
+        )
+        auto = {
+            "chosen": methods[0],
+            "scores": {methods[0]: first.metrics["gates"]["score"]},
+            "failed": {},
+            "gates_failed": {methods[0]: _failed_gates(first)},
+            "reason": reason,
+        }
+        return replace(first, metrics={**first.metrics, "auto": auto})
     score = first.metrics["gates"]["score"]
     auto = {
         "chosen": methods[0],
@@ -134,6 +151,17 @@ def _first_passing(
         f"{methods[1]} not tried",
     }
     return replace(first, metrics={**first.metrics, "auto": auto})
+
+
+#: above this many panels a field layout that fails a gate is not challenged by the skeleton
+SKELETON_CHALLENGE_PANELS = 500
+
+
+def _worth_a_skeleton(first: PanelLayout, methods: tuple[str, str]) -> bool:
+    """Whether the second method is worth making beside a first layout that fails a gate: the
+    skeleton beside a field layout only up to ``SKELETON_CHALLENGE_PANELS`` (its smoothing
+    took 29 s on a 1000-panel crescent, and it scored lower wherever both were made)."""
+    return methods != ("field", "skeleton") or len(first.quads) <= SKELETON_CHALLENGE_PANELS
 
 
 def _failed_gates(layout: PanelLayout) -> list[str]:

@@ -11,8 +11,27 @@ without a corner). Two corners closer than twice that along the outline (a facet
 ``merge``, each end turning on its own) are one corner too: the quasi-structured mesher splits
 its triangles into quads, so a boundary curve always gets an even number of edges, at least
 two, and a curve shorter than ``2 x merge`` gives edges shorter than the gates allow (a 112 mm
-facet cutting a 90° corner at 0.32 m panels made two 56 mm edges). Angles are measured in the
-conformal flattening, which keeps them; lengths on the surface.
+facet cutting a 90° corner at 0.32 m panels made two 56 mm edges).
+
+A small smooth opening (perimeter up to ``SMALL_OPENING`` panel sizes, a round or oval hole
+about a panel across) reaches the mesher as a square: four of its vertices, a quarter of its
+perimeter apart and set square to the cross field that the rest of the outline would give
+there, joined by straight lines. The quad grid then runs past it as past a missing panel, three
+panels at each of the four corners. Seen as a smooth loop, a 0.8 m hole at 1 m panels got a
+ring of eight panels and five or six singular vertices round it, with a third of their corners
+outside 60-120°. The nodes on the square's sides are put onto the real opening afterwards
+(the layout's sides there follow the opening on the surface).
+
+A tight rounding (a rounded corner of the plan, radius under about a panel) is a corner too:
+where the outline turns more than ``ROUNDING_TURN`` within one panel size of arc, and not more
+than ``ROUNDING_MOST`` within two, the vertex in the middle of the turn is a corner and the
+rounding's other vertices within half a panel of it are left out. Seen as smooth, a 90°
+rounding of 0.6-0.9 m radius at 1 m panels got one boundary node half way round with two panels
+of 130-135° there, or a valence-3 vertex just inside it; as a corner, one panel turns it, its
+two sides following the rounding on the surface (the nodes are put on the design boundary
+afterwards). A rounded end turning further (an ellipse's tip, a lobe) stays smooth: one corner
+could not take it. Angles are measured in the conformal flattening, which keeps them; lengths
+on the surface.
 """
 
 from __future__ import annotations
@@ -26,6 +45,12 @@ from .skeleton_input import turning_angles
 
 #: a vertex left out beside a corner that turns more than this (degrees) was a facet of it
 FACET_TURN = 5.0
+#: an opening without corners shorter than this round (x the panel size) is meshed as a square
+SMALL_OPENING = 5.0
+#: a rounding that turns more than this (degrees) within one panel size of arc is one corner
+ROUNDING_TURN = 60.0
+#: ... unless it turns more than this within two panel sizes (a rounded end, not a corner)
+ROUNDING_MOST = 135.0
 
 
 @dataclass(frozen=True)
@@ -41,9 +66,14 @@ class OutlineCorners:
 
 
 def outline_corners(
-    surface: Surface, flat: np.ndarray, corner_angle: float, merge: float
+    surface: Surface,
+    flat: np.ndarray,
+    corner_angle: float,
+    merge: float,
+    panel_size: float | None = None,
 ) -> OutlineCorners:
-    """The outline's corners (see the module docstring); ``merge`` in mm."""
+    """The outline's corners (see the module docstring); ``merge`` and ``panel_size`` in mm
+    (no tight roundings are looked for without a panel size)."""
     loops, corners, cut = [], [], []
     for loop in surface.boundary_loops:
         turning = turning_angles(flat[loop])
@@ -52,6 +82,8 @@ def outline_corners(
             np.abs(_window_sums(turning, arc, merge)) > corner_angle
         )
         corner, dropped = _sharpest_of_each_run(candidate, turning, arc, merge)
+        if panel_size is not None:
+            corner, dropped = _tight_roundings(corner, dropped, turning, arc, panel_size)
         corner, dropped = _one_corner_of_close_pairs(corner, dropped, turning, arc, 2 * merge)
         keep = ~dropped
         loops.append(loop[keep])
@@ -153,3 +185,94 @@ def _one_corner_of_close_pairs(
         dropped[between] = True
         dropped[lost] = True
         dropped[kept] = False
+
+
+def _tight_roundings(
+    corner: np.ndarray, dropped: np.ndarray, turning: np.ndarray, arc: np.ndarray, size: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Corners and left-out vertices with the tight roundings added (module docstring): per
+    run of vertices whose turning within ``size`` of arc is over ``ROUNDING_TURN``, the one
+    turning most within that window, unless the turning within ``2 x size`` is over
+    ``ROUNDING_MOST`` or an existing corner lies within ``size``."""
+    swept = np.abs(_window_sums(turning, arc, size))
+    wide = np.abs(_window_sums(turning, arc, 2.0 * size))
+    candidate = swept > ROUNDING_TURN
+    if not candidate.any() or candidate.all():
+        return corner, dropped
+    corner, dropped = corner.copy(), dropped.copy()
+    total, n = arc[-1], len(corner)
+    start = int(np.flatnonzero(~candidate)[0])
+    order = (start + np.arange(n)) % n
+    runs = np.split(order, np.flatnonzero(np.diff(candidate[order].astype(int)) != 0) + 1)
+    for run in runs:
+        if not candidate[run[0]]:
+            continue
+        middle = int(run[np.argmax(swept[run])])
+        gap = np.abs(arc[:-1] - arc[middle])
+        gap = np.minimum(gap, total - gap)
+        if wide[middle] > ROUNDING_MOST or (corner & (gap < size)).any():
+            continue
+        corner[middle] = True
+        dropped[(gap <= 0.5 * size) & ~corner] = True
+    return corner, dropped
+
+
+def squared_small_openings(
+    outline: OutlineCorners,
+    surface: Surface,
+    flat: np.ndarray,
+    panel_size: float,
+) -> tuple[OutlineCorners, OutlineCorners]:
+    """The outline with every small smooth opening (module docstring) given four corners, and
+    the outline the mesher gets, in which those openings are only their four corners (joined
+    by straight lines). Returns ``(outline, for_mesher)``; both are ``outline`` when there is
+    no such opening."""
+    small = [
+        index
+        for index, (loop, corners) in enumerate(zip(outline.loops, outline.corners, strict=True))
+        if index > 0
+        and not corners.any()
+        and _arc_lengths(surface.vertices[loop])[-1] <= SMALL_OPENING * panel_size
+    ]
+    if not small:
+        return outline, outline
+    from .cross_field import boundary_cross_field
+
+    steering = [loop for i, loop in enumerate(surface.boundary_loops) if i not in small]
+    theta = boundary_cross_field(surface.faces, flat, steering)
+    corners = list(outline.corners)
+    mesher_loops, mesher_corners = list(outline.loops), list(outline.corners)
+    for index in small:
+        loop = outline.loops[index]
+        square = _square_corners(flat[loop], _field_angle_at(surface.faces, theta, loop))
+        corners[index] = np.zeros(len(loop), dtype=bool)
+        corners[index][square] = True
+        mesher_loops[index] = loop[np.sort(square)]
+        mesher_corners[index] = np.ones(4, dtype=bool)
+    return (
+        OutlineCorners(outline.loops, tuple(corners), outline.cut_corners),
+        OutlineCorners(tuple(mesher_loops), tuple(mesher_corners), outline.cut_corners),
+    )
+
+
+def _field_angle_at(faces: np.ndarray, theta: np.ndarray, loop: np.ndarray) -> float:
+    """The mean direction of a cross field (angle per triangle) over the triangles touching
+    ``loop``, averaged as ``exp(4 i theta)`` (a cross is the same turned by 90°)."""
+    touching = np.isin(faces, loop).any(axis=1)
+    return float(np.angle(np.exp(4j * theta[touching]).mean()) / 4.0)
+
+
+def _square_corners(points: np.ndarray, angle: float) -> np.ndarray:
+    """Four distinct vertex indices of a closed flat loop, a quarter of its perimeter apart,
+    placed so that the square through them has its sides along ``angle`` (the corners at
+    ``angle + 45° + k x 90°`` seen from the loop's centroid)."""
+    arc = _arc_lengths(points)
+    centre = points.mean(axis=0)
+    toward = np.arctan2(points[:, 1] - centre[1], points[:, 0] - centre[0])
+    first = int(np.argmin(np.abs(np.angle(np.exp(1j * (toward - angle - np.pi / 4))))))
+    targets = (arc[first] + arc[-1] * np.arange(4) / 4.0) % arc[-1]
+    gap = np.abs(arc[:-1][None, :] - targets[:, None])
+    picked = np.argmin(np.minimum(gap, arc[-1] - gap), axis=1)
+    if len(np.unique(picked)) < 4:  # a loop of very few vertices: every fourth of them
+        picked = (first + (np.arange(4) * len(points)) // 4) % len(points)
+    return picked

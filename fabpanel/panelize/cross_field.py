@@ -128,6 +128,13 @@ def curvature_cross_field(
     return theta, summary
 
 
+def boundary_cross_field(faces: np.ndarray, flat: np.ndarray, boundary_loops) -> np.ndarray:
+    """Angle (radians, flat domain) per triangle of the smoothest cross field that follows the
+    given boundary loops (vertex ids; loops left out do not steer it)."""
+    zero = np.zeros(len(faces))
+    return _solve_field(faces, flat, boundary_loops, zero, zero)
+
+
 def _to_flat(vertices, faces, flat, direction3d) -> np.ndarray:
     """Each triangle's 3D tangent direction through its own map to the flat triangle."""
     p0, p1, p2 = (vertices[faces[:, i]] for i in range(3))

@@ -38,11 +38,11 @@ from ..job import Job
 from ..surface import SurfaceQuery
 from ..units import length_scale
 from .boundary import DesignBoundary
-from .corners import OutlineCorners, outline_corners
+from .corners import OutlineCorners, outline_corners, squared_small_openings
 from .decompose import oversize_panels
 from .false_corners import dissolve_corners, one_panel_nodes
 from .gate_band import band_measures
-from .gates import CORNER_LIMITS, MIN_EDGE
+from .gates import CORNER_LIMITS, MIN_EDGE, gate_measures, layout_score
 from .lift import FlatMesh, barycentric_weights
 from .quality import corner_angles, layout_metrics
 from .slide import BoundaryTrack, SlidingNodes
@@ -80,35 +80,33 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     flat, scale = conformal_flattening(surface.vertices, surface.faces, surface.boundary_loops[0])
     flat_mesh = FlatMesh(flat, surface.faces, surface.vertices)
     # corners closer than the shortest edge the gates allow are one corner
-    outline = outline_corners(surface, flat, settings.corner_angle, MIN_EDGE * settings.panel_size)
-    domain = _Domain(
-        flat_mesh=flat_mesh,
-        scale=scale,
-        points=_singular_points(surface, job, query, flat_mesh),
-        track=_boundary_track(outline, flat),
-        boundary=DesignBoundary(surface),
-        query=query,
-        target=settings.panel_size,
+    outline = outline_corners(
+        surface, flat, settings.corner_angle, MIN_EDGE * settings.panel_size, settings.panel_size
     )
-    size = settings.panel_size
-    for plate_round in range(PLATE_ROUNDS + 1):
-        nodes, quads, on_curve, info = _gmsh_quads(
-            surface, flat, scale, outline, domain.points, job, size
+    squared, for_mesher = squared_small_openings(outline, surface, flat, settings.panel_size)
+    points = _singular_points(surface, job, query, flat_mesh)
+    boundary = DesignBoundary(surface)
+    best: tuple[float, np.ndarray, np.ndarray, dict] | None = None
+    # small openings as squares where that scores better on the gates (module corners)
+    variants = [(outline, outline)] + ([(squared, for_mesher)] if for_mesher is not outline else [])
+    for kept, mesher in variants:
+        domain = _Domain(
+            flat_mesh=flat_mesh,
+            scale=scale,
+            points=points,
+            track=_boundary_track(kept, flat),
+            boundary=boundary,
+            query=query,
+            target=settings.panel_size,
         )
-        mesh = _FlatQuads(nodes, quads, on_curve, size)
-        mesh, vertices, info["relaxation"], fits = _placed_without_false_corners(domain, mesh, job)
-        quads = mesh.quads
-        if fits or plate_round == PLATE_ROUNDS:
-            break
-        size *= PLATE_SHRINK  # some panels miss the plate: smaller panels everywhere
-    info.update(plate_rounds=plate_round, size_used_mm=round(float(size), 1))
-    quads = _orient_outwards(vertices, quads, query)
-    layout = PanelLayout(
-        vertices=vertices,
-        quads=quads,
-        panel_ids=tuple(f"P{i + 1:03d}" for i in range(len(quads))),
-        method="field",
-    )
+        vertices, quads, info = _fitted_layout(surface, flat, scale, mesher, domain, job)
+        score = layout_score(gate_measures(_layout(vertices, quads), surface, domain.target))
+        if best is None or score > best[0]:
+            best = (score, vertices, quads, {**info, "openings_squared": mesher is not kept})
+            outline = kept
+    assert best is not None
+    _, vertices, quads, info = best
+    layout = _layout(vertices, _orient_outwards(vertices, quads, query))
     loops3d = [surface.vertices[loop] for loop in surface.boundary_loops]
     metrics, found = layout_metrics(layout, query, settings.panel_size, job.cutting, loops3d)
     from .cross_field import curvature_alignment
@@ -121,6 +119,35 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     found = (*found, *_cut_corner_issues(surface, outline))
     log.info("field panelisation: %d panels", len(quads))
     return replace(layout, metrics=metrics, issues=found)
+
+
+def _layout(vertices: np.ndarray, quads: np.ndarray) -> PanelLayout:
+    ids = tuple(f"P{i + 1:03d}" for i in range(len(quads)))
+    return PanelLayout(vertices=vertices, quads=quads, panel_ids=ids, method="field")
+
+
+def _fitted_layout(
+    surface: Surface,
+    flat: np.ndarray,
+    scale: np.ndarray,
+    mesher: OutlineCorners,
+    domain: _Domain,
+    job: Job,
+) -> tuple[np.ndarray, np.ndarray, dict]:
+    """gmsh's quads of the outline ``mesher`` placed on the surface; while a panel misses the
+    plate, made again with smaller panels everywhere (module docstring, step 4)."""
+    size = job.panelize.panel_size
+    for plate_round in range(PLATE_ROUNDS + 1):
+        nodes, quads, on_curve, info = _gmsh_quads(
+            surface, flat, scale, mesher, domain.points, job, size
+        )
+        mesh = _FlatQuads(nodes, quads, on_curve, size)
+        mesh, vertices, info["relaxation"], fits = _placed_without_false_corners(domain, mesh, job)
+        if fits or plate_round == PLATE_ROUNDS:
+            break
+        size *= PLATE_SHRINK  # some panels miss the plate: smaller panels everywhere
+    info.update(plate_rounds=plate_round, size_used_mm=round(float(size), 1))
+    return vertices, mesh.quads, info
 
 
 @dataclass(frozen=True)
@@ -153,23 +180,27 @@ def _place(
     boundary, except ``pinned`` ones, if ``slide``) and put on the surface; boundary nodes
     exactly on the design boundary.
 
-    The smoothing squares the panels. Where that fails a gate on corners or edges and every
-    panel fits the plate (otherwise the caller pins nodes or makes the layout again, smaller),
-    a second one from there also holds corners and edges in the gates' bands
-    (:mod:`.gate_band`); it is kept where it scores better on the gates' own measures and
-    every panel still fits (where the flattening's scale changes fast, on a trumpet, the two
+    The smoothing squares the panels. Where that fails a gate on corners or edges or a panel
+    misses the plate, a second one from there also holds corners and edges in the gates' bands
+    (:mod:`.gate_band`); it is kept where every panel fits and it scores better on the gates'
+    own measures (otherwise, where the first missed the plate, the caller pins nodes or makes
+    the layout again, smaller) (where the flattening's scale changes fast, on a trumpet, the two
     pull against each other and the first is better). A layout that passes is left as it is:
     the second smoothing costs a second at a thousand panels, and trades the smallest corner
     for the share in the band."""
     relaxed, relaxation = _relax(domain, mesh, slide, pinned, mesh.nodes, band=False)
     vertices = _on_surface(domain, mesh, relaxed)
     before = band_measures(vertices, mesh.quads, domain.target)
-    if before.passes or oversize_panels(vertices, mesh.quads, job).any():
-        return vertices, relaxation  # passes, or will be pinned or made again smaller
+    missed = bool(oversize_panels(vertices, mesh.quads, job).any())
+    if before.passes and not missed:
+        return vertices, relaxation
+    # the bands also hold every edge under 1.25 x panel_size, which often brings a squared
+    # boundary panel that misses the plate back onto it (else the caller pins or shrinks)
     banded, band_relaxation = _relax(domain, mesh, slide, pinned, relaxed, band=True)
     in_band = _on_surface(domain, mesh, banded)
     after = band_measures(in_band, mesh.quads, domain.target)
-    better = after.score > before.score and not oversize_panels(in_band, mesh.quads, job).any()
+    fits = not oversize_panels(in_band, mesh.quads, job).any()
+    better = fits and after.score > before.score
     relaxation["gate_band"] = {
         "score_before": round(before.score, 4),
         "score_after": round(after.score, 4),

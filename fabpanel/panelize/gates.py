@@ -164,11 +164,12 @@ def layout_score(measures: dict) -> float:
     """One number to compare layouts of one surface (higher is better).
 
     The share of edges in the band plus the share of good corners, less a penalty for each
-    gate failed: too many panels (by how much), an edge shorter than 0.3 x panel_size, corners
+    gate failed: too many panels (0.5, and by how much), an edge shorter than 0.3 x panel_size, corners
     outside 45-135°, a wrong topology. Documented in the README (Panel layouts).
     """
     score = measures["edges_in_band"] + measures["corners_in_60_120"]
     score -= 2.0 * max(0.0, measures["count_ratio"] - MAX_COUNT_RATIO)
+    score -= 0.5 * (measures["count_ratio"] > MAX_COUNT_RATIO)
     score -= 0.5 * (measures["shortest_edge_vs_panel_size"] < MIN_EDGE)
     score -= 0.5 * (measures["corners_in_45_135"] < 1.0)
     score -= 10.0 * (

@@ -17,6 +17,7 @@ from ..errors import GeometryError
 from ..geom.fitting import bestfit_planes
 from ..job import Job
 from ..surface import SurfaceQuery
+from ..surface.query import vertex_normals
 from .quality import layout_metrics
 
 log = logging.getLogger(__name__)
@@ -63,10 +64,17 @@ def is_four_sided(surface: Surface, corner_angle: float) -> bool:
     if len(surface.boundary_loops) != 1:
         return False
     try:
-        boundary_corners(surface.vertices[surface.boundary_loops[0]], corner_angle)
+        _outline_corners(surface, corner_angle)
     except GeometryError:
         return False
     return True
+
+
+def _outline_corners(surface: Surface, corner_angle: float) -> np.ndarray:
+    """The four corners of the surface's one boundary loop, turning in its tangent planes."""
+    loop = surface.boundary_loops[0]
+    normals = vertex_normals(surface.vertices, surface.faces)[loop]
+    return boundary_corners(surface.vertices[loop], corner_angle, normals)
 
 
 def _divisions(length: float, target: float, explicit: int | None) -> int:
@@ -105,17 +113,24 @@ def _grid_quads(nu: int, nv: int) -> np.ndarray:
     return np.stack([v00, v00 + nv + 1, v00 + nv + 2, v00 + 1], axis=1)
 
 
-def boundary_corners(points: np.ndarray, corner_angle: float) -> np.ndarray:
+def boundary_corners(
+    points: np.ndarray, corner_angle: float, normals: np.ndarray | None = None
+) -> np.ndarray:
     """Indices of the four corners of a closed boundary polyline, in loop order.
 
-    points : (n, 3) float, the loop. A corner is a vertex whose turning angle in the loop's
-    best-fitting plane exceeds ``corner_angle`` degrees; the four sharpest are taken.
+    points : (n, 3) float, the loop. A corner is a vertex whose turning angle in the surface's
+    tangent plane there (``normals`` (n, 3), the surface's unit normals at the loop's
+    vertices; default the loop's best-fitting plane) exceeds ``corner_angle`` degrees; the
+    four sharpest are taken. The tangent plane matters on a tall vault: its outline's
+    best-fitting plane is the one its two end arches lie in, which sees its long straight
+    sides end on.
     """
-    normal = bestfit_planes(points[None])[0][0]
+    if normals is None:
+        normals = np.broadcast_to(bestfit_planes(points[None])[0][0], points.shape)
     incoming = points - np.roll(points, 1, axis=0)
     outgoing = np.roll(points, -1, axis=0) - points
-    incoming -= np.outer(incoming @ normal, normal)
-    outgoing -= np.outer(outgoing @ normal, normal)
+    incoming -= np.einsum("ij,ij->i", incoming, normals)[:, None] * normals
+    outgoing -= np.einsum("ij,ij->i", outgoing, normals)[:, None] * normals
     cos = np.einsum("ij,ij->i", incoming, outgoing) / (
         np.linalg.norm(incoming, axis=1) * np.linalg.norm(outgoing, axis=1)
     )
@@ -141,7 +156,7 @@ def _resample(polyline: np.ndarray, count: int) -> np.ndarray:
 
 def _coons_grid(surface: Surface, query: SurfaceQuery, settings) -> tuple[np.ndarray, np.ndarray]:
     loop = surface.vertices[surface.boundary_loops[0]]
-    corners = boundary_corners(loop, settings.corner_angle)
+    corners = _outline_corners(surface, settings.corner_angle)
     closed = np.vstack([loop, loop[:1]])
     sides = []
     for a, b in zip(corners, np.roll(corners, -1)):

@@ -94,8 +94,7 @@ class BoundaryTrack:
         """For each parameter, the stretch it may move in: between its two corners, or free
         on a loop without corners (where :meth:`at` wraps it round)."""
         out: list[tuple[float | None, float | None]] = []
-        loop_of = np.searchsorted(self.spans[:, 1], t)
-        for value, loop in zip(t, loop_of):
+        for value, loop in zip(t, self.loop_of(t)):
             if self.periodic[loop]:
                 out.append((None, None))
                 continue
@@ -104,6 +103,13 @@ class BoundaryTrack:
             margin = 1e-6 * (params[k + 1] - params[k])
             out.append((float(params[k] + margin), float(params[k + 1] - margin)))
         return out
+
+    def loop_of(self, t: np.ndarray) -> np.ndarray:
+        """The loop of each parameter. A foot at a loop's very end can come out a rounding
+        error past it, into the gap before the next loop (or past the last): it belongs to the
+        loop that ends there."""
+        ends = self.spans[:, 1] + 0.5 * _GAP
+        return np.minimum(np.searchsorted(ends, t), len(self.spans) - 1)
 
     def wrap(self, t: np.ndarray, loops: np.ndarray) -> np.ndarray:
         """Parameters brought back into their loops' spans (loops without corners wrap)."""
@@ -150,7 +156,7 @@ class SlidingNodes:
         ids, t = candidates[~on_corner], t[~on_corner]
         return cls(
             ids=ids,
-            loops=np.searchsorted(track.spans[:, 1], t),
+            loops=track.loop_of(t),
             t=t,
             track=track,
             edges=np.zeros((0, 2), dtype=np.int64) if edges is None else edges,
