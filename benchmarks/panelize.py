@@ -94,6 +94,13 @@ def passes(record: dict) -> bool:
     )
 
 
+def _tips(record: dict) -> str:
+    """A note where the design outline has tips under 45° (no layout can meet the corner
+    target there: ``outline-sharp-corner``)."""
+    tips = record.get("outline_tip_angles_deg") or []
+    return f" (design tips {', '.join(f'{a:.0f}°' for a in tips)})" if tips else ""
+
+
 def table(runs: list[dict]) -> str:
     lines = [
         (
@@ -111,7 +118,7 @@ def table(runs: list[dict]) -> str:
             f"| {r['shape']} | {r['method']} | {r['panels']} | {r['panels_for_area']:.0f} | "
             f"{r['shortest_edge_mm']:.0f} mm | {low:.0f}°-{high:.0f}° | "
             f"{r['corners_in_60_120']:.0%} | {r['edges_in_band']:.0%} | {r['seconds']:.1f} s | "
-            f"{'pass' if passes(r) else 'fail'} |"
+            f"{'pass' if passes(r) else 'fail'}{_tips(r)} |"
         )
     return "\n".join(lines)
 

@@ -42,7 +42,14 @@ from .corners import OutlineCorners, outline_corners, squared_small_openings
 from .decompose import oversize_panels
 from .false_corners import dissolve_corners, one_panel_nodes
 from .gate_band import band_measures
-from .gates import CORNER_LIMITS, MIN_EDGE, gate_measures, layout_score
+from .gates import (
+    CORNER_LIMITS,
+    MIN_EDGE,
+    MIN_WIDTH,
+    gate_measures,
+    layout_score,
+    meets_every_gate,
+)
 from .lift import FlatMesh, barycentric_weights
 from .quality import corner_angles, layout_metrics
 from .slide import BoundaryTrack, SlidingNodes
@@ -63,6 +70,11 @@ CORNER_TOLERANCE = 1e-3
 #: nodes, unfolded; a second round changed no gate on four test shapes and cost 0.5 s at
 #: a thousand panels
 BAND_OUTER = 1
+
+#: the layout with small openings as squares is made only beside a plain one of at most this
+#: many panels that fails a gate: an opening about a panel across matters in a coarse layout,
+#: and a second layout doubled the pavilion's 25 s
+SQUARED_UP_TO_PANELS = 500
 
 #: a gmsh run longer than this is stopped (it never takes more than seconds on 5000 panels)
 GMSH_TIMEOUT = 300.0
@@ -86,10 +98,16 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     squared, for_mesher = squared_small_openings(outline, surface, flat, settings.panel_size)
     points = _singular_points(surface, job, query, flat_mesh)
     boundary = DesignBoundary(surface)
-    best: tuple[float, np.ndarray, np.ndarray, dict] | None = None
-    # small openings as squares where that scores better on the gates (module corners)
+    best: tuple[float, np.ndarray, np.ndarray, dict, dict] | None = None
+    min_width = settings.min_panel_width or MIN_WIDTH * settings.panel_size
+    # small openings as squares where the plain layout fails a gate and the square scores
+    # better (module corners)
     variants = [(outline, outline)] + ([(squared, for_mesher)] if for_mesher is not outline else [])
     for kept, mesher in variants:
+        if best is not None and (
+            meets_every_gate(best[4], min_width) or len(best[2]) > SQUARED_UP_TO_PANELS
+        ):
+            break
         domain = _Domain(
             flat_mesh=flat_mesh,
             scale=scale,
@@ -100,12 +118,14 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
             target=settings.panel_size,
         )
         vertices, quads, info = _fitted_layout(surface, flat, scale, mesher, domain, job)
-        score = layout_score(gate_measures(_layout(vertices, quads), surface, domain.target))
+        measures = gate_measures(_layout(vertices, quads), surface, domain.target)
+        score = layout_score(measures)
         if best is None or score > best[0]:
-            best = (score, vertices, quads, {**info, "openings_squared": mesher is not kept})
+            squared_here = mesher is not kept
+            best = (score, vertices, quads, {**info, "openings_squared": squared_here}, measures)
             outline = kept
     assert best is not None
-    _, vertices, quads, info = best
+    _, vertices, quads, info, _ = best
     layout = _layout(vertices, _orient_outwards(vertices, quads, query))
     loops3d = [surface.vertices[loop] for loop in surface.boundary_loops]
     metrics, found = layout_metrics(layout, query, settings.panel_size, job.cutting, loops3d)

@@ -160,6 +160,21 @@ def _within(values: np.ndarray, limits: tuple[float, float]) -> np.ndarray:
     return (values >= limits[0]) & (values <= limits[1])
 
 
+def meets_every_gate(measures: dict, min_width: float) -> bool:
+    """Whether the measures of :func:`gate_measures` pass every gate of the table above (a
+    design tip's corner counts as failing: callers use this to stop looking further)."""
+    return bool(
+        measures["count_ratio"] <= MAX_COUNT_RATIO
+        and measures["edges_in_band"] >= MIN_BAND_SHARE
+        and measures["shortest_edge_vs_panel_size"] >= MIN_EDGE
+        and measures["corners_in_45_135"] >= 1.0
+        and measures["corners_in_60_120"] >= MIN_GOOD_CORNERS
+        and measures["narrowest_panel_mm"] >= min_width
+        and measures["manifold"]
+        and measures["euler_characteristic"] == measures["surface_euler_characteristic"]
+    )
+
+
 def layout_score(measures: dict) -> float:
     """One number to compare layouts of one surface (higher is better).
 
