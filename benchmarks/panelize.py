@@ -22,6 +22,7 @@ import tracemalloc
 from pathlib import Path
 
 import fabpanel as fp
+from fabpanel.panelize.gates import MIN_WIDTH, meets_every_gate
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -83,15 +84,9 @@ def measure(name: str, job: fp.Job, surface, method: str, size: str) -> dict:
 
 
 def passes(record: dict) -> bool:
-    return (
-        record["count_ratio"] <= 1.3
-        and record["edges_in_band"] >= 0.9
-        and record["shortest_edge_vs_panel_size"] >= 0.3
-        and record["corners_in_45_135"] >= 1.0
-        and record["corners_in_60_120"] >= 0.95
-        and record["manifold"]
-        and record["euler_characteristic"] == record["surface_euler_characteristic"]
-    )
+    """Every layout gate, with the default narrowest panel (0.3 x panel_size)."""
+    size = record["shortest_edge_mm"] / record["shortest_edge_vs_panel_size"]
+    return meets_every_gate(record, MIN_WIDTH * size)
 
 
 def _tips(record: dict) -> str:

@@ -98,14 +98,14 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     squared, for_mesher = squared_small_openings(outline, surface, flat, settings.panel_size)
     points = _singular_points(surface, job, query, flat_mesh)
     boundary = DesignBoundary(surface)
-    best: tuple[float, np.ndarray, np.ndarray, dict, dict] | None = None
     min_width = settings.min_panel_width or MIN_WIDTH * settings.panel_size
+    best: _Candidate | None = None
     # small openings as squares where the plain layout fails a gate and the square scores
     # better (module corners)
     variants = [(outline, outline)] + ([(squared, for_mesher)] if for_mesher is not outline else [])
     for kept, mesher in variants:
         if best is not None and (
-            meets_every_gate(best[4], min_width) or len(best[2]) > SQUARED_UP_TO_PANELS
+            meets_every_gate(best.measures, min_width) or len(best.quads) > SQUARED_UP_TO_PANELS
         ):
             break
         domain = _Domain(
@@ -119,13 +119,12 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
         )
         vertices, quads, info = _fitted_layout(surface, flat, scale, mesher, domain, job)
         measures = gate_measures(_layout(vertices, quads), surface, domain.target)
-        score = layout_score(measures)
-        if best is None or score > best[0]:
-            squared_here = mesher is not kept
-            best = (score, vertices, quads, {**info, "openings_squared": squared_here}, measures)
+        if best is None or layout_score(measures) > layout_score(best.measures):
+            info["openings_squared"] = mesher is not kept
+            best = _Candidate(vertices, quads, info, measures)
             outline = kept
     assert best is not None
-    _, vertices, quads, info, _ = best
+    vertices, quads, info = best.vertices, best.quads, best.info
     layout = _layout(vertices, _orient_outwards(vertices, quads, query))
     loops3d = [surface.vertices[loop] for loop in surface.boundary_loops]
     metrics, found = layout_metrics(layout, query, settings.panel_size, job.cutting, loops3d)
@@ -139,6 +138,17 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     found = (*found, *_cut_corner_issues(surface, outline))
     log.info("field panelisation: %d panels", len(quads))
     return replace(layout, metrics=metrics, issues=found)
+
+
+@dataclass(frozen=True)
+class _Candidate:
+    """One way of meshing the outline, placed: its vertices and quads, the report of its
+    making (``metrics["field"]``) and its gate measures."""
+
+    vertices: np.ndarray
+    quads: np.ndarray
+    info: dict
+    measures: dict
 
 
 def _layout(vertices: np.ndarray, quads: np.ndarray) -> PanelLayout:
@@ -203,8 +213,8 @@ def _place(
     The smoothing squares the panels. Where that fails a gate on corners or edges or a panel
     misses the plate, a second one from there also holds corners and edges in the gates' bands
     (:mod:`.gate_band`); it is kept where every panel fits and it scores better on the gates'
-    own measures (otherwise, where the first missed the plate, the caller pins nodes or makes
-    the layout again, smaller) (where the flattening's scale changes fast, on a trumpet, the two
+    own measures; otherwise, where the first missed the plate, the caller pins nodes or makes
+    the layout again, smaller (where the flattening's scale changes fast, on a trumpet, the two
     pull against each other and the first is better). A layout that passes is left as it is:
     the second smoothing costs a second at a thousand panels, and trades the smallest corner
     for the share in the band."""
