@@ -30,6 +30,9 @@
 - ``slab_hole``: a slab 10.4 x 4.7 m (under five panels across) with 1.13 m rounded corners and
   a round opening 0.91 m across, smaller than a panel: the layout can neither ring the opening
   nor turn the corners with one panel;
+- ``rounded_slab``: a gently domed slab 10.8 x 9.5 m whose corners round off at 3 m, no
+  openings: a smooth outline that gmsh's pattern-based faces mesh as a disk, rings of panels
+  growing to twice the size at the rim;
 - ``steep_vault``: a half-cylinder of 4 m radius and 10 m long with two windows in its flanks:
   walls that stand vertical at the springing, where a plan projection fails.
 
@@ -224,6 +227,12 @@ def slab_hole_mesh() -> tuple[np.ndarray, np.ndarray]:
     )
 
 
+def rounded_slab_mesh() -> tuple[np.ndarray, np.ndarray]:
+    # corners rounded at 3 m, no openings: the mesher's pattern-based faces made it a disk
+    core = box(-5.4 + 3.0, -4.75 + 3.0, 5.4 - 3.0, 4.75 - 3.0)
+    return _mesh(core.buffer(3.0, quad_segs=16), lambda x, y: 0.8 * np.exp(-(x**2 + y**2) / 30.0))
+
+
 SHAPES = {
     "canopy4": canopy4_mesh,
     "dome_oculus": dome_oculus_mesh,
@@ -240,6 +249,7 @@ SHAPES = {
     "crescent": crescent_mesh,
     "steep_vault": steep_vault_mesh,
     "slab_hole": slab_hole_mesh,
+    "rounded_slab": rounded_slab_mesh,
 }
 
 

@@ -19,7 +19,14 @@ from fabpanel.data import PanelLayout, Surface
 from fabpanel.develop.project import sample_panels
 from fabpanel.geom.conformal import conformal_flattening
 from fabpanel.panelize.boundary import DesignBoundary, boundary_deviation, smooth_loop
-from fabpanel.panelize.gates import gate_issues, gate_measures, layout_score, panel_widths
+from fabpanel.panelize.gates import (
+    gate_issues,
+    gate_measures,
+    layout_score,
+    meets_every_gate,
+    panel_widths,
+)
+from fabpanel.panelize.quality import corner_angles
 from fabpanel.surface import SurfaceQuery
 
 
@@ -301,6 +308,20 @@ def test_holding_the_gate_bands_passes_every_gate_where_squaring_alone_did_not(t
     assert gates["count_ratio"] <= 1.3
 
 
+def test_a_smooth_outline_is_not_meshed_as_a_disk(tmp_path):
+    # gmsh's pattern-based faces made the 3 m roundings a disk: four valence-3 vertices 3 m
+    # inside, rim panels 1.7 m long, and after two plate rounds 206 panels for 95 m²; without
+    # them, a grid turning the roundings
+    layout = fp.panelize(_hard_shape("rounded_slab", tmp_path), _job("1 m", method="field"))
+    field = layout.metrics["field"]
+    assert field["gmsh_topology"] == 10 and field["plate_rounds"] == 0
+    gates = layout.metrics["gates"]
+    assert gates["count_ratio"] <= 1.3  # measured 1.17 (111 panels)
+    assert gates["edges_in_band"] >= 0.9  # measured 1.0
+    assert gates["corners_outside_45_135"] == 0  # measured 64-125°
+    assert gates["corners_in_60_120"] >= 0.95  # measured 0.99
+
+
 def test_a_layout_corner_on_a_smooth_lobe_is_dissolved(tmp_path):
     # gmsh puts a boundary vertex of one panel on the funnel's 2.5 m lobe: 159-165° however
     # the outline nodes slide; dissolved, its inner vertex has three panels (one or two such
@@ -410,6 +431,23 @@ def test_a_tip_sharper_than_45_degrees_is_named_as_the_designs():
     # the 30° corner is not listed again among the layout's own bad corners
     corner = issues.get("layout-corner-angle")
     assert corner is None or "P001" not in corner.message
+
+
+def test_the_designs_tips_can_be_set_apart_when_asking_whether_every_gate_is_met():
+    surface, corners = _triangle(30.0)
+    layout = _three_quads(corners)
+    measures = gate_measures(layout, surface, 1000.0)
+    angles = corner_angles(layout.vertices[layout.quads])
+    assert measures["corners_outside_45_135"] == np.sum((angles < 45) | (angles > 135)) >= 1
+    # as if the tip were the one corner outside the gates (three panels on 0.43 m² fail the
+    # others too)
+    measures = {**measures, "count_ratio": 1.0, "edges_in_band": 1.0}
+    measures.update(corners_outside_45_135=1, corners_in_60_120=11 / 12)
+    assert not meets_every_gate(measures, 300.0)
+    assert meets_every_gate(measures, 300.0, tips_apart=True)
+    # one corner beyond 45-135° that is not the design's fails either way
+    measures["corners_outside_45_135"] = 2
+    assert not meets_every_gate(measures, 300.0, tips_apart=True)
 
 
 def test_a_sharp_panel_corner_on_a_straight_outline_is_the_layouts():

@@ -6,10 +6,12 @@
    slope only);
 2. gmsh's quasi-structured quad mesher (Reberol et al. 2021) meshes the flat domain: a
    boundary-aligned cross field by heat diffusion, parallelograms packed along it, midpoint
-   subdivision into quads, cavity remeshing of the irregular vertices. The boundary loops are
-   splines through the flattened design boundary, split at its corners (turning more than
+   subdivision into quads, the irregular vertices moved and merged by local remeshing. The
+   boundary loops are splines through the flattened design boundary, split at its corners (turning more than
    ``[panelize] corner_angle``); ``singular_points`` are embedded as mesh vertices. It runs in a
-   child process (:mod:`.gmsh_quads`), which also calibrates the size (layout.md §2.3);
+   child process (:mod:`.gmsh_quads`), which also calibrates the size (layout.md §2.3); on a
+   domain without openings whose layout fails a gate, a second mesh without QQS's
+   pattern-based faces is made as well and the better layout kept (``TOPOLOGIES``);
 3. the quads are mapped back onto the surface through the flattening's triangles, and the
    boundary vertices are put on the design boundary exactly;
 4. while a panel does not fit the usable plate, the whole layout is made again with panels
@@ -75,6 +77,23 @@ BAND_OUTER = 1
 #: many panels that fails a gate: an opening about a panel across matters in a coarse layout,
 #: and a second layout doubled the pavilion's 25 s
 SQUARED_UP_TO_PANELS = 500
+
+#: QQS's topology steps (``Mesh.QuadqsTopologyOptimizationMethods``), tried in turn: first
+#: pattern-based faces and disk quadrangulation, but no cavity remeshing (that step runs
+#: against a time budget and gave different meshes run to run, up to 1 mm); then, on a domain
+#: without openings where the first layout misses the plate or fails a gate, disk
+#: quadrangulation alone, the better layout kept. The pattern-based step can mesh a smooth
+#: outline as a disk, four valence-3 vertices deep inside and the same count on every ring of
+#: panels out to the boundary: on a 12 m rounded square, boundary edges twice as long as the
+#: inner ones, and twice the panel count once the boundary panels were made to fit the plate
+#: (disk quadrangulation alone: 114 panels, every gate passed); on an ellipse at 0.35 m, a
+#: quarter of the panel count. On domains with openings both gave the same meshes.
+TOPOLOGIES = (110, 10)
+#: ... beyond ``SQUARED_UP_TO_PANELS`` only where the first layout is as far off as this: a
+#: share of edges in the gates' band under ``FAR_OFF_BAND``, or a count ratio outside
+#: ``FAR_OFF_COUNT``
+FAR_OFF_BAND = 0.8
+FAR_OFF_COUNT = (0.7, 1.3)
 
 #: a gmsh run longer than this is stopped (it never takes more than seconds on 5000 panels)
 GMSH_TIMEOUT = 300.0
@@ -167,17 +186,67 @@ def _fitted_layout(
     """gmsh's quads of the outline ``mesher`` placed on the surface; while a panel misses the
     plate, made again with smaller panels everywhere (module docstring, step 4)."""
     size = job.panelize.panel_size
+    min_width = job.panelize.min_panel_width or MIN_WIDTH * job.panelize.panel_size
     for plate_round in range(PLATE_ROUNDS + 1):
-        nodes, quads, on_curve, info = _gmsh_quads(
-            surface, flat, scale, mesher, domain.points, job, size
-        )
-        mesh = _FlatQuads(nodes, quads, on_curve, size)
-        mesh, vertices, info["relaxation"], fits = _placed_without_false_corners(domain, mesh, job)
-        if fits or plate_round == PLATE_ROUNDS:
+        first, alone = TOPOLOGIES
+        placed = [_placed_mesh(surface, flat, scale, mesher, domain, job, size, first)]
+        if len(mesher.loops) == 1 and _worth_another_topology(placed[0], min_width):
+            placed.append(_placed_mesh(surface, flat, scale, mesher, domain, job, size, alone))
+        # fits first, then the score; the first topology on a tie
+        best = max(placed, key=lambda p: (p.fits, layout_score(p.measures)))
+        if best.fits or plate_round == PLATE_ROUNDS:
             break
         size *= PLATE_SHRINK  # some panels miss the plate: smaller panels everywhere
-    info.update(plate_rounds=plate_round, size_used_mm=round(float(size), 1))
-    return vertices, mesh.quads, info
+    best.info.update(plate_rounds=plate_round, size_used_mm=round(float(size), 1))
+    return best.vertices, best.mesh.quads, best.info
+
+
+def _worth_another_topology(placed: _Placed, min_width: float) -> bool:
+    """Whether a layout of a domain without openings is worth making again with the second
+    of ``TOPOLOGIES``: where it fails a gate (the design's tips apart), on a small layout, or
+    on any layout where it is far off (misses the plate, or its count or edge lengths are far
+    from the asked size: the disk pattern's symptom). A thousand-panel layout that misses by
+    a corner or two is not worth the second mesh, which doubles the time."""
+    measures = placed.measures
+    if placed.fits and meets_every_gate(measures, min_width, tips_apart=True):
+        return False
+    far_off = (
+        not placed.fits
+        or measures["edges_in_band"] < FAR_OFF_BAND
+        or not FAR_OFF_COUNT[0] <= measures["count_ratio"] <= FAR_OFF_COUNT[1]
+    )
+    return far_off or measures["panels_for_area"] <= SQUARED_UP_TO_PANELS
+
+
+@dataclass(frozen=True)
+class _Placed:
+    """One of gmsh's meshes placed on the surface, measured by the gates."""
+
+    vertices: np.ndarray
+    mesh: _FlatQuads
+    info: dict
+    fits: bool
+    measures: dict
+
+
+def _placed_mesh(
+    surface: Surface,
+    flat: np.ndarray,
+    scale: np.ndarray,
+    mesher: OutlineCorners,
+    domain: _Domain,
+    job: Job,
+    size: float,
+    topology: int,
+) -> _Placed:
+    """gmsh's quads at panel ``size`` with QQS's ``topology`` steps, placed on the surface."""
+    nodes, quads, on_curve, info = _gmsh_quads(
+        surface, flat, scale, mesher, domain.points, job, size, topology
+    )
+    mesh = _FlatQuads(nodes, quads, on_curve, size)
+    mesh, vertices, info["relaxation"], fits = _placed_without_false_corners(domain, mesh, job)
+    measures = gate_measures(_layout(vertices, mesh.quads), surface, domain.target)
+    return _Placed(vertices, mesh, info, fits, measures)
 
 
 @dataclass(frozen=True)
@@ -436,8 +505,10 @@ def _gmsh_quads(
     points: np.ndarray,
     job: Job,
     size: float,
+    topology: int,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
-    """Run :mod:`.gmsh_quads` on the flat domain in a child process; its nodes and quads."""
+    """Run :mod:`.gmsh_quads` on the flat domain in a child process with QQS's ``topology``
+    steps; its nodes and quads, which nodes lie on the boundary curves, and what it did."""
     from ..parallel import child_preexec
 
     cross: dict = {}
@@ -462,6 +533,7 @@ def _gmsh_quads(
             points=points,
             h=float(size),
             area=surface.area,
+            topology=topology,
             **cross,
         )
         script = Path(__file__).with_name("gmsh_quads.py")
@@ -492,6 +564,7 @@ def _gmsh_quads(
             "size_factor": round(float(out["factor"]), 4),
             "flat_score": round(float(out["score"]), 4),
             "gmsh_meshes": int(out["meshes"]),
+            "gmsh_topology": topology,
             "gmsh_seconds": round(float(out["seconds"]), 2),
         }
         return out["nodes"], out["quads"].astype(np.int64), out["on_curve"], info

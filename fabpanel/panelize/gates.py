@@ -102,6 +102,7 @@ def gate_measures(layout: PanelLayout, surface: Surface, target: float) -> dict:
         "corner_angle_deg": [round(float(angles.min()), 2), round(float(angles.max()), 2)],
         "corners_in_60_120": round(float(np.mean(_within(angles, CORNER_GOOD))), 4),
         "corners_in_45_135": round(float(np.mean(_within(angles, CORNER_LIMITS))), 4),
+        "corners_outside_45_135": int(np.sum(~_within(angles, CORNER_LIMITS))),
         "euler_characteristic": euler_characteristic(len(layout.vertices), layout.quads),
         "surface_euler_characteristic": euler_characteristic(len(surface.vertices), surface.faces),
         "manifold": bool(side_uses.max() <= 2) if len(side_uses) else True,
@@ -160,15 +161,21 @@ def _within(values: np.ndarray, limits: tuple[float, float]) -> np.ndarray:
     return (values >= limits[0]) & (values <= limits[1])
 
 
-def meets_every_gate(measures: dict, min_width: float) -> bool:
-    """Whether the measures of :func:`gate_measures` pass every gate of the table above (a
-    design tip's corner counts as failing: callers use this to stop looking further)."""
+def meets_every_gate(measures: dict, min_width: float, tips_apart: bool = False) -> bool:
+    """Whether the measures of :func:`gate_measures` pass every gate of the table above. A
+    design tip's corner counts as failing (callers use this to stop looking further), unless
+    ``tips_apart``: then the corner gates are taken over the other corners, as
+    :func:`gate_issues` takes them."""
+    corners = 4 * measures["panels"]
+    tips = len(measures["outline_tip_corners"]) if tips_apart else 0
+    outside_limits = measures["corners_outside_45_135"] - tips
+    good_share = measures["corners_in_60_120"] * corners / max(corners - tips, 1)
     return bool(
         measures["count_ratio"] <= MAX_COUNT_RATIO
         and measures["edges_in_band"] >= MIN_BAND_SHARE
         and measures["shortest_edge_vs_panel_size"] >= MIN_EDGE
-        and measures["corners_in_45_135"] >= 1.0
-        and measures["corners_in_60_120"] >= MIN_GOOD_CORNERS
+        and outside_limits <= 0
+        and good_share >= MIN_GOOD_CORNERS
         and measures["narrowest_panel_mm"] >= min_width
         and measures["manifold"]
         and measures["euler_characteristic"] == measures["surface_euler_characteristic"]
@@ -186,7 +193,7 @@ def layout_score(measures: dict) -> float:
     score -= 2.0 * max(0.0, measures["count_ratio"] - MAX_COUNT_RATIO)
     score -= 0.5 * (measures["count_ratio"] > MAX_COUNT_RATIO)
     score -= 0.5 * (measures["shortest_edge_vs_panel_size"] < MIN_EDGE)
-    score -= 0.5 * (measures["corners_in_45_135"] < 1.0)
+    score -= 0.5 * (measures["corners_outside_45_135"] > 0)
     score -= 10.0 * (
         not measures["manifold"]
         or measures["euler_characteristic"] != measures["surface_euler_characteristic"]

@@ -6,7 +6,9 @@ gmsh's quasi-structured quad mesher (``Mesh.Algorithm = 11``, Reberol et al. 202
 whole process on some inputs, so :mod:`.field` runs this file as a child process; it imports
 only numpy, scipy and gmsh.
 
-IN holds the flattened design surface (``flat`` (n, 2), ``faces`` (m, 3), ``scale`` (n,): flat
+IN holds the setting of QQS's topology steps (``topology``, a value of
+``Mesh.QuadqsTopologyOptimizationMethods``, see :data:`.field.TOPOLOGIES`), the flattened
+design surface (``flat`` (n, 2), ``faces`` (m, 3), ``scale`` (n,): flat
 length per surface length), the boundary loops (``loops`` concatenated, ``loop_starts``), which
 loop vertices are corners (``corners`` bool, per concatenated entry), points to embed
 (``points`` (p, 2)), the target surface edge length ``h`` and the surface ``area``. The size
@@ -16,7 +18,8 @@ the median surface edge is within 4 % of ``h``; then a few factors around it are
 mesh with the best gate score is kept.
 
 OUT holds ``nodes`` (q, 2), ``quads`` (r, 4) 0-based, ``on_curve`` (q,) bool (nodes on the
-boundary curves), ``factor`` (the chosen k), ``median`` (the surface-equivalent median edge) and ``score``.
+boundary curves), ``factor`` (the chosen k), ``median`` (the surface-equivalent median edge),
+``score`` and ``meshes`` (how many were made).
 """
 
 from __future__ import annotations
@@ -226,6 +229,21 @@ def _score(data, nodes: np.ndarray, quads: np.ndarray) -> tuple[float, float]:
     return score, float(np.median(lengths) * h)
 
 
+def _meshes_of_topology(data, topology: int, meshed: dict) -> float:
+    """Mesh the domain with one setting of QQS's topology steps: the calibrated size factor
+    and its neighbours (and factors further out where the calibration does not converge on a
+    small domain), each kept in ``meshed`` (factor -> (score, median, mesh)); returns the
+    calibrated factor."""
+    gmsh.option.setNumber("Mesh.QuadqsTopologyOptimizationMethods", topology)
+    factor, converged = _calibrated_factor(data, meshed)
+    for candidate in factor * np.asarray(CANDIDATES):
+        _mesh_and_score(data, float(candidate), meshed)
+    if not converged and float(data["area"]) / float(data["h"]) ** 2 <= FURTHER_MAX_PANELS:
+        for candidate in _nearest_median(data, meshed) * np.asarray(FURTHER):
+            _mesh_and_score(data, float(candidate), meshed)
+    return factor
+
+
 def main(source: str, target: str) -> None:
     data = dict(np.load(source))
     gmsh.initialize(readConfigFiles=False)
@@ -238,9 +256,6 @@ def main(source: str, target: str) -> None:
             "Mesh.MeshSizeFromPoints": 0,
             "Mesh.MeshSizeExtendFromBoundary": 0,
             "General.NumThreads": 1,
-            # pattern-based faces and disk quadrangulation, but no cavity remeshing: that step
-            # runs against a time budget and gave different meshes run to run (up to 1 mm)
-            "Mesh.QuadqsTopologyOptimizationMethods": 110,
         }
         for name, value in options.items():
             gmsh.option.setNumber(name, value)
@@ -251,15 +266,11 @@ def main(source: str, target: str) -> None:
             gmsh.model.occ.synchronize()
             gmsh.model.mesh.embed(0, tags, 2, surface)
         started = time.perf_counter()
+        topology = int(data["topology"])
         meshed: dict = {}
-        factor, converged = _calibrated_factor(data, meshed)
-        for candidate in factor * np.asarray(CANDIDATES):
-            _mesh_and_score(data, float(candidate), meshed)
-        if not converged and float(data["area"]) / float(data["h"]) ** 2 <= FURTHER_MAX_PANELS:
-            for candidate in _nearest_median(data, meshed) * np.asarray(FURTHER):
-                _mesh_and_score(data, float(candidate), meshed)
+        calibrated = _meshes_of_topology(data, topology, meshed)
         # the best score; among equals the factor nearest the calibrated one
-        factor = max(meshed, key=lambda f: (meshed[f][0], -abs(f - factor)))
+        factor = max(meshed, key=lambda f: (meshed[f][0], -abs(f - calibrated)))
         score, median, (nodes, quads, on_curve) = meshed[factor]
         np.savez(
             target,
