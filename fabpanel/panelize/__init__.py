@@ -35,7 +35,7 @@ from ..surface import SurfaceQuery
 from ..units import length_scale
 from .boundary import DesignBoundary
 from .estimate import check_panel_count
-from .gates import gate_issues, gate_measures, layout_score
+from .gates import gate_issues, gate_measures, layout_score, min_panel_width
 from .grid import grid_panelize, is_four_sided
 from .quality import vertex_valences
 
@@ -194,7 +194,7 @@ def _gated(layout: PanelLayout, surface: Surface, job: Job) -> PanelLayout:
     """The layout with its gate measures in ``metrics["gates"]`` and the gates' issues."""
     layout = on_design_boundary(layout, surface, job.panelize.panel_size)
     measures = gate_measures(layout, surface, job.panelize.panel_size)
-    measures["score"] = layout_score(measures)
+    measures["score"] = layout_score(measures, min_panel_width(job))
     return replace(
         layout,
         metrics={**layout.metrics, "gates": measures},

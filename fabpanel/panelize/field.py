@@ -47,10 +47,10 @@ from .gate_band import band_measures
 from .gates import (
     CORNER_LIMITS,
     MIN_EDGE,
-    MIN_WIDTH,
     gate_measures,
     layout_score,
     meets_every_gate,
+    min_panel_width,
 )
 from .lift import FlatMesh, barycentric_weights
 from .quality import corner_angles, layout_metrics
@@ -117,7 +117,7 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     squared, for_mesher = squared_small_openings(outline, surface, flat, settings.panel_size)
     points = _singular_points(surface, job, query, flat_mesh)
     boundary = DesignBoundary(surface)
-    min_width = settings.min_panel_width or MIN_WIDTH * settings.panel_size
+    min_width = min_panel_width(job)
     best: _Candidate | None = None
     # small openings as squares where the plain layout fails a gate and the square scores
     # better (module corners)
@@ -138,7 +138,9 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
         )
         vertices, quads, info = _fitted_layout(surface, flat, scale, mesher, domain, job)
         measures = gate_measures(_layout(vertices, quads), surface, domain.target)
-        if best is None or layout_score(measures) > layout_score(best.measures):
+        if best is None or layout_score(measures, min_width) > layout_score(
+            best.measures, min_width
+        ):
             info["openings_squared"] = mesher is not kept
             best = _Candidate(vertices, quads, info, measures)
             outline = kept
@@ -186,14 +188,14 @@ def _fitted_layout(
     """gmsh's quads of the outline ``mesher`` placed on the surface; while a panel misses the
     plate, made again with smaller panels everywhere (module docstring, step 4)."""
     size = job.panelize.panel_size
-    min_width = job.panelize.min_panel_width or MIN_WIDTH * job.panelize.panel_size
+    min_width = min_panel_width(job)
     for plate_round in range(PLATE_ROUNDS + 1):
         first, alone = TOPOLOGIES
         placed = [_placed_mesh(surface, flat, scale, mesher, domain, job, size, first)]
         if len(mesher.loops) == 1 and _worth_another_topology(placed[0], min_width):
             placed.append(_placed_mesh(surface, flat, scale, mesher, domain, job, size, alone))
         # fits first, then the score; the first topology on a tie
-        best = max(placed, key=lambda p: (p.fits, layout_score(p.measures)))
+        best = max(placed, key=lambda p: (p.fits, layout_score(p.measures, min_width)))
         if best.fits or plate_round == PLATE_ROUNDS:
             break
         size *= PLATE_SHRINK  # some panels miss the plate: smaller panels everywhere

@@ -161,6 +161,12 @@ def _within(values: np.ndarray, limits: tuple[float, float]) -> np.ndarray:
     return (values >= limits[0]) & (values <= limits[1])
 
 
+def min_panel_width(job: Job) -> float:
+    """The narrowest panel the gates allow, mm: ``[panelize] min_panel_width``, by default
+    ``MIN_WIDTH x panel_size``."""
+    return job.panelize.min_panel_width or MIN_WIDTH * job.panelize.panel_size
+
+
 def meets_every_gate(measures: dict, min_width: float, tips_apart: bool = False) -> bool:
     """Whether the measures of :func:`gate_measures` pass every gate of the table above. A
     design tip's corner counts as failing (callers use this to stop looking further), unless
@@ -182,18 +188,21 @@ def meets_every_gate(measures: dict, min_width: float, tips_apart: bool = False)
     )
 
 
-def layout_score(measures: dict) -> float:
+def layout_score(measures: dict, min_width: float) -> float:
     """One number to compare layouts of one surface (higher is better).
 
     The share of edges in the band plus the share of good corners, less a penalty for each
-    gate failed: too many panels (0.5, and by how much), an edge shorter than 0.3 x panel_size, corners
-    outside 45-135°, a wrong topology. Documented in the README (Panel layouts).
+    gate failed: too many panels (0.5, and by how much), an edge shorter than 0.3 x
+    panel_size, corners outside 45-135°, a panel narrower than ``min_width`` mm (1: an error,
+    which no share of good corners makes up for), a wrong topology. Documented in the README
+    (Panel layouts).
     """
     score = measures["edges_in_band"] + measures["corners_in_60_120"]
     score -= 2.0 * max(0.0, measures["count_ratio"] - MAX_COUNT_RATIO)
     score -= 0.5 * (measures["count_ratio"] > MAX_COUNT_RATIO)
     score -= 0.5 * (measures["shortest_edge_vs_panel_size"] < MIN_EDGE)
     score -= 0.5 * (measures["corners_outside_45_135"] > 0)
+    score -= 1.0 * (measures["narrowest_panel_mm"] < min_width)
     score -= 10.0 * (
         not measures["manifold"]
         or measures["euler_characteristic"] != measures["surface_euler_characteristic"]
@@ -216,7 +225,7 @@ def gate_issues(layout: PanelLayout, measures: dict, job: Job) -> tuple[Issue, .
         fix = 'try [panelize] method = "field" or another panel_size'
     corners = layout.vertices[layout.quads]
     issues: list[Issue] = []
-    min_width = job.panelize.min_panel_width or MIN_WIDTH * target
+    min_width = min_panel_width(job)
     widths = panel_widths(corners)
     narrow = np.flatnonzero(widths < min_width)
     if len(narrow):
