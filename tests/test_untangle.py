@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from conftest import unit_quad_grid
 from scipy.optimize import check_grad
 
@@ -18,6 +19,24 @@ def test_gradient_matches_finite_differences():
         lambda v: _energy_and_gradient(v, *args)[0], lambda v: _energy_and_gradient(v, *args)[1], x
     )
     assert error < 1e-4 * np.linalg.norm(_energy_and_gradient(x, *args)[1])
+
+
+def test_a_corner_folded_far_past_eps_keeps_a_finite_energy_and_gradient():
+    # a line search's trial step can fold a corner far beyond the schedule's eps: (det +
+    # sqrt(eps² + det²)) / 2 cancelled to 0 there (divide-by-zero warnings on a random blob)
+    points, quads, movable = unit_quad_grid(3)
+    folded = points.copy()
+    folded[movable] = [[3.0e6, 2.0e6], [-1.0e6, 1.5e6], [2.0, -4.0e6], [1.0, 1.0]]
+    with np.errstate(all="raise"):
+        energy, gradient = _energy_and_gradient(
+            folded[movable].ravel(), folded, movable, _corners(quads), 1.0, 1e-4
+        )
+    assert np.isfinite(energy) and energy > 1e12 and np.isfinite(gradient).all()
+    # unfolded corners are as before: the energy at the grid itself is unchanged
+    flat, _ = _energy_and_gradient(
+        points[movable].ravel(), points, movable, _corners(quads), 1.0, 1e-4
+    )
+    assert flat == pytest.approx(36 * (2.0 + 0.25 * 2.0), rel=1e-6)
 
 
 def test_badly_folded_grid_becomes_the_regular_grid():

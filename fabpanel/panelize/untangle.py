@@ -97,8 +97,13 @@ def _energy_and_gradient(
     det = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
     trace = (a * a).sum(axis=1) + (b * b).sum(axis=1)
     root = np.sqrt(eps * eps + det * det)
+    # (det + root) / 2 cancels to 0 where det is far below -eps (a line search's trial step
+    # can fold a corner far past the schedule's eps): the same value as eps^2 / (2 (root - det))
+    folded = det < 0.0
     chi = 0.5 * (det + root)
+    chi[folded] = 0.5 * eps * eps / (root[folded] - det[folded])
     dchi = 0.5 * (1.0 + det / root)
+    dchi[folded] = chi[folded] / root[folded]  # the same, stably
     numerator = trace + AREA_WEIGHT * (det * det + 1.0)
     energy = float((numerator / chi).sum())
     d_trace = 1.0 / chi
