@@ -46,6 +46,10 @@ class SolverError(FabpanelError, RuntimeError):
     """A numerical solver or an external engine (CalculiX, spyrrow) failed."""
 
 
+class WorkerError(FabpanelError, RuntimeError):
+    """A worker process stopped before its task was done (see :mod:`fabpanel.parallel`)."""
+
+
 class Stopped(KeyboardInterrupt):
     """The run was stopped by a signal (SIGINT or SIGTERM).
 

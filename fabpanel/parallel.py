@@ -31,11 +31,14 @@ import sys
 import warnings
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
 from threadpoolctl import threadpool_limits
+
+from .errors import WorkerError
 
 _limits = None
 
@@ -198,10 +201,34 @@ def worker_pool(workers: int, fresh: bool = False) -> Iterator[Executor]:
     )
     try:
         yield pool
+    except BrokenProcessPool as err:
+        terminate_pool(pool)
+        raise WorkerError(_broken_pool_message(fresh)) from err
     except BaseException:
         terminate_pool(pool)
         raise
     pool.shutdown(wait=True)
+
+
+def _broken_pool_message(fresh: bool) -> str:
+    """Why a pool's workers may have stopped: killed, out of memory, a crash in a native
+    library; and for fresh workers started from a script of the user's, a missing main guard
+    (each fresh worker imports the script that started the run, and without the guard runs it
+    again, which cannot start workers of its own)."""
+    message = (
+        "a worker process stopped before its task was done (killed, out of memory, or a "
+        "crash in OCCT)"
+    )
+    script = os.path.abspath(getattr(sys.modules.get("__main__"), "__file__", None) or "")
+    package = os.path.dirname(os.path.abspath(__file__))
+    # a script of the user's: not the console script, fabpanel itself or an installed tool's
+    users = script.endswith(".py") and not script.startswith(package)
+    if fresh and users and "site-packages" not in script:
+        message += (
+            f"; or {os.path.basename(script)} calls fabpanel at its top level: fresh workers "
+            f'import it again, so put the calls under `if __name__ == "__main__":`'
+        )
+    return message
 
 
 #: the pool :func:`shared_pool` lends to every fresh ``worker_pool`` opened inside it

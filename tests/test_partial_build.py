@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 from conftest import cylinder_developed
 
-from fabpanel.errors import KernelError
+from fabpanel.errors import KernelError, WorkerError
 from fabpanel.flat import cut, nest, validate_nests
 from fabpanel.job import Job
 from fabpanel.model import build, write_panel_steps
@@ -153,8 +153,10 @@ _real_build_panel = build_module.build_panel
 )
 def test_a_dead_worker_is_not_a_bad_panel(good, job, monkeypatch):
     monkeypatch.setattr(build_module, "build_panel", _die_on_bad)
-    with pytest.raises(BrokenProcessPool):
+    with pytest.raises(WorkerError) as stopped:
         build(good, job, jobs=2)
+    assert isinstance(stopped.value.__cause__, BrokenProcessPool)
+    assert "worker process stopped" in str(stopped.value)
 
 
 def test_keyboard_interrupt_is_not_a_bad_panel(good, job, monkeypatch):

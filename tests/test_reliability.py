@@ -320,6 +320,31 @@ def test_workers_die_with_a_killed_run_and_its_debris_is_swept(tmp_path):
 # ---------------------------------------------------------------------------------------------
 # exit codes and stderr
 # ---------------------------------------------------------------------------------------------
+def test_a_script_without_a_main_guard_is_told_to_add_one(tmp_path):
+    # fresh (forkserver) workers import the script that started the run; without the guard
+    # each runs it again and dies starting workers of its own: a bare BrokenProcessPool before
+    script = tmp_path / "no_guard.py"
+    script.write_text(
+        "from fabpanel.parallel import map_chunks\n"
+        "def double(chunk):\n"
+        "    return [2 * x for x in chunk]\n"
+        "print(sum(map_chunks(double, list(range(40)), 2)))\n"
+    )
+    run = subprocess.run(
+        [sys.executable, str(script)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+        check=False,
+    )
+    assert run.returncode != 0
+    last = run.stderr.strip().splitlines()[-1]
+    assert last.startswith("fabpanel.errors.WorkerError")
+    assert "no_guard.py calls fabpanel at its top level" in last
+    assert 'if __name__ == "__main__":' in last
+
+
 def test_library_warnings_become_issues_not_stderr():
     import warnings
 
