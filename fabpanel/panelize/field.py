@@ -136,7 +136,7 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
             query=query,
             target=settings.panel_size,
         )
-        vertices, quads, info = _fitted_layout(surface, flat, scale, mesher, domain, job)
+        vertices, quads, info = _fitted_layout(surface, mesher, domain, job)
         measures = gate_measures(_layout(vertices, quads), surface, domain.target)
         if best is None or layout_score(measures, min_width) > layout_score(
             best.measures, min_width
@@ -178,12 +178,7 @@ def _layout(vertices: np.ndarray, quads: np.ndarray) -> PanelLayout:
 
 
 def _fitted_layout(
-    surface: Surface,
-    flat: np.ndarray,
-    scale: np.ndarray,
-    mesher: OutlineCorners,
-    domain: _Domain,
-    job: Job,
+    surface: Surface, mesher: OutlineCorners, domain: _Domain, job: Job
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """gmsh's quads of the outline ``mesher`` placed on the surface; while a panel misses the
     plate, made again with smaller panels everywhere (module docstring, step 4)."""
@@ -191,9 +186,9 @@ def _fitted_layout(
     min_width = min_panel_width(job)
     for plate_round in range(PLATE_ROUNDS + 1):
         first, alone = TOPOLOGIES
-        placed = [_placed_mesh(surface, flat, scale, mesher, domain, job, size, first)]
+        placed = [_placed_mesh(surface, mesher, domain, job, size, first)]
         if len(mesher.loops) == 1 and _worth_another_topology(placed[0], min_width):
-            placed.append(_placed_mesh(surface, flat, scale, mesher, domain, job, size, alone))
+            placed.append(_placed_mesh(surface, mesher, domain, job, size, alone))
         # fits first, then the score; the first topology on a tie
         best = max(placed, key=lambda p: (p.fits, layout_score(p.measures, min_width)))
         if best.fits or plate_round == PLATE_ROUNDS:
@@ -232,18 +227,11 @@ class _Placed:
 
 
 def _placed_mesh(
-    surface: Surface,
-    flat: np.ndarray,
-    scale: np.ndarray,
-    mesher: OutlineCorners,
-    domain: _Domain,
-    job: Job,
-    size: float,
-    topology: int,
+    surface: Surface, mesher: OutlineCorners, domain: _Domain, job: Job, size: float, topology: int
 ) -> _Placed:
     """gmsh's quads at panel ``size`` with QQS's ``topology`` steps, placed on the surface."""
     nodes, quads, on_curve, info = _gmsh_quads(
-        surface, flat, scale, mesher, domain.points, job, size, topology
+        surface, domain.flat_mesh.flat, domain.scale, mesher, domain.points, job, size, topology
     )
     mesh = _FlatQuads(nodes, quads, on_curve, size)
     mesh, vertices, info["relaxation"], fits = _placed_without_false_corners(domain, mesh, job)
