@@ -7,11 +7,12 @@
 2. gmsh's quasi-structured quad mesher (Reberol et al. 2021) meshes the flat domain: a
    boundary-aligned cross field by heat diffusion, parallelograms packed along it, midpoint
    subdivision into quads, the irregular vertices moved and merged by local remeshing. The
-   boundary loops are splines through the flattened design boundary, split at its corners (turning more than
-   ``[panelize] corner_angle``); ``singular_points`` are embedded as mesh vertices. It runs in a
-   child process (:mod:`.gmsh_quads`), which also calibrates the size (layout.md §2.3); on a
-   domain without openings whose layout fails a gate, a second mesh without QQS's
-   pattern-based faces is made as well and the better layout kept (``TOPOLOGIES``);
+   boundary loops are splines through the flattened design boundary, split at its corners
+   (turning more than ``[panelize] corner_angle``); ``singular_points`` are embedded as mesh
+   vertices. It runs in a child process (:mod:`.gmsh_quads`), which also calibrates the size
+   (layout.md §2.3); on a domain without openings whose layout fails a gate, a second mesh
+   without QQS's pattern-based faces is made as well and the better layout kept
+   (``TOPOLOGIES``);
 3. the quads are mapped back onto the surface through the flattening's triangles, and the
    boundary vertices are put on the design boundary exactly;
 4. while a panel does not fit the usable plate, the whole layout is made again with panels
@@ -180,8 +181,9 @@ def _layout(vertices: np.ndarray, quads: np.ndarray) -> PanelLayout:
 def _fitted_layout(
     surface: Surface, mesher: OutlineCorners, domain: _Domain, job: Job
 ) -> tuple[np.ndarray, np.ndarray, dict]:
-    """gmsh's quads of the outline ``mesher`` placed on the surface; while a panel misses the
-    plate, made again with smaller panels everywhere (module docstring, step 4)."""
+    """gmsh's quads of the outline ``mesher`` placed on the surface (the better of two
+    topology settings where the first fails, ``TOPOLOGIES``); while a panel misses the plate,
+    made again with smaller panels everywhere (module docstring, step 4)."""
     size = job.panelize.panel_size
     min_width = min_panel_width(job)
     for plate_round in range(PLATE_ROUNDS + 1):
