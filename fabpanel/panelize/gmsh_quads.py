@@ -8,8 +8,8 @@ only numpy, scipy and gmsh.
 
 IN holds the setting of QQS's topology steps (``topology``, a value of
 ``Mesh.QuadqsTopologyOptimizationMethods``, see :data:`.field.TOPOLOGIES`), the flattened
-design surface (``flat`` (n, 2), ``faces`` (m, 3), ``scale`` (n,): flat
-length per surface length), the boundary loops (``loops`` concatenated, ``loop_starts``), which
+design surface (``flat`` (n, 2), ``faces`` (m, 3), ``scale`` (n,): flat length per surface
+length), the boundary loops (``loops`` concatenated, ``loop_starts``), which
 loop vertices are corners (``corners`` bool, per concatenated entry), points to embed
 (``points`` (p, 2)), the target surface edge length ``h`` and the surface ``area``. The size
 field is ``h / k x scale`` in the flat domain; gmsh's edges come out at about ``0.46 x`` the
@@ -239,10 +239,12 @@ def _meshes_of_topology(data, topology: int, meshed: dict) -> float:
     calibrated factor."""
     gmsh.option.setNumber("Mesh.QuadqsTopologyOptimizationMethods", topology)
     factor, converged = _calibrated_factor(data, meshed)
-    large = float(data["area"]) / float(data["h"]) ** 2 > FEWER_CANDIDATES_ABOVE
-    for candidate in factor * np.asarray(CANDIDATES[:2] if large else CANDIDATES):
+    panels = float(data["area"]) / float(data["h"]) ** 2
+    for candidate in factor * np.asarray(
+        CANDIDATES[:2] if panels > FEWER_CANDIDATES_ABOVE else CANDIDATES
+    ):
         _mesh_and_score(data, float(candidate), meshed)
-    if not converged and float(data["area"]) / float(data["h"]) ** 2 <= FURTHER_MAX_PANELS:
+    if not converged and panels <= FURTHER_MAX_PANELS:
         for candidate in _nearest_median(data, meshed) * np.asarray(FURTHER):
             _mesh_and_score(data, float(candidate), meshed)
     return factor
