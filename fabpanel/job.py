@@ -879,6 +879,18 @@ class StructureSection(_Section):
     #: check the first buckling factor at one element per side fewer and, while it changes by
     #: 5 % or more, at finer sizes within ``max_elements`` (:mod:`fabpanel.structure.convergence`)
     buckling_convergence: bool = True
+    #: also a geometrically nonlinear analysis of the imperfect shell (GNIA, EN 1993-1-6
+    #: §8.7): the first buckling mode as the imperfection, both signs, the governing
+    #: combination ramped with NLGEOM to its limit point (:mod:`fabpanel.structure.gnia`);
+    #: each sign costs some ten static solves
+    gnia: bool = False
+    #: fabrication tolerance quality class (EN 1993-1-6 Table 8.8): the imperfection's size
+    tolerance_class: Literal["A", "B", "C"] = "B"
+    #: the imperfection's amplitude; default: EN 1993-1-6's dimple amplitude for the class
+    imperfection_amplitude: PositiveLength | None = None
+    #: partial factor for shell buckling resistance (EN 1993-1-6, NDP); the GNIA factor must
+    #: reach it
+    gamma_m1: float = Field(default=1.1, ge=1.0)
     #: CalculiX threads (default: the --jobs count, else all cores)
     threads: int | None = Field(default=None, ge=1, le=256)
     #: stop a CalculiX run after this long

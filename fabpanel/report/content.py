@@ -205,6 +205,12 @@ def _structure_verdict(structure: dict) -> Verdict:
     convergence = b.get("convergence", {})
     if convergence.get("table") and not convergence.get("converged"):
         lines += ("buckling mesh study NOT converged within 5 % (see Structure)",)
+    gnia = b.get("gnia")
+    if gnia:
+        limit = "limit" if gnia["limit_reached"] else "no limit up to"
+        amplitude = number(gnia["amplitude_mm"])
+        text = f"GNIA {limit} {number(gnia['factor'])} (imperfection {amplitude} mm; "
+        lines += (text + f"required {number(gnia['required'])})",)
     bolts = structure.get("bolts", {})
     if bolts.get("checked"):
         lines += (f"bolts: utilisation {number(bolts['utilisation'])}",)

@@ -125,6 +125,19 @@ def utilisation_figure(structure) -> bytes:
     return data
 
 
+def _gnia_row(g: dict, ok) -> str:
+    """The GNIA's limit factor beside the LBA, with the imperfection it assumed."""
+    limit = "limit" if g["limit_reached"] else "no limit up to"
+    where = f", r {g['radius_mm']} mm, t {g['thickness_mm']:g} mm" if g.get("radius_mm") else ""
+    return (
+        f"{limit} {g['factor']:.4g} (LBA {g['lba']:.4g}, ratio {g['ratio_to_lba']}; "
+        f"first yield, linear, at {g['first_yield_linear']:.4g}); "
+        f"imperfection {g['amplitude_mm']} mm ({g['amplitude_source']}{where}), both signs "
+        f"({', '.join(p['sign'] + ' ' + format(p['limit'], '.4g') for p in g['paths'])}); "
+        f"required {g['required']:g}: {ok(g['ok'])}"
+    )
+
+
 def _bolts_row(bolts: dict, ok) -> str:
     """The joint bolts' check in one line (or why there is none)."""
     if not bolts.get("checked"):
@@ -215,6 +228,8 @@ def structure_blocks(result) -> list:
     ]
     if b.get("note"):
         rows.append(("buckling note", b["note"]))
+    if b.get("gnia"):
+        rows.append(("GNIA (imperfect, nonlinear)", _gnia_row(b["gnia"], ok)))
     convergence = b.get("convergence", {})
     if convergence.get("table"):
         steps = ", ".join(

@@ -20,11 +20,13 @@ def describe(structure: Structure) -> str:
     s = structure.summary
     if not structure.analysed:
         return f"not analysed: {s['reason']}"
+    gnia = s["buckling"].get("gnia")
     return (
         f"{s['mesh']['elements']} S8R, utilisation {s['stress']['utilisation']:.2f}, "
         f"deflection {s['deflection']['ratio']}, buckling factor "
-        f"{s['buckling']['first']:.2f} (>= {s['buckling']['required']:.3g}): "
-        f"{'ok' if s['ok'] else 'check failed'}"
+        f"{s['buckling']['first']:.2f} (>= {s['buckling']['required']:.3g})"
+        + (f", GNIA {gnia['factor']:.2f} (>= {gnia['required']:g})" if gnia else "")
+        + f": {'ok' if s['ok'] else 'check failed'}"
     )
 
 

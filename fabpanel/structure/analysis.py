@@ -36,6 +36,7 @@ from .balance import (
     stray_knots,
     support_sum_issues,
     support_summary,
+    with_tie_pull,
 )
 from .bolt_checks import bolt_checks, corrected_reactions, write_bolts_csv
 from .bolt_layout import bolt_layout
@@ -53,6 +54,7 @@ from .checks import (
 from .connectors import JointBolts, attach
 from .convergence import MAX_REFINEMENTS, buckling_convergence
 from .forming import sprung_sheet_findings
+from .gnia import gnia
 from .mesh import ShellModel, sandwich_model, sandwich_settings
 from .static import run_static
 from .supports import (
@@ -309,7 +311,8 @@ def _analyse(
 
     # ---- static cases ----------------------------------------------------------------------
     run = run_static(shell, cases, folder, threads, st.timeout, executable)
-    dat, disp, stress = corrected_reactions(shell, run.dat), run.displacement, run.stress
+    dat = with_tie_pull(shell, corrected_reactions(shell, run.dat), cases)
+    disp, stress = run.displacement, run.stress
     bottom, top, knots = run.bottom, run.top, run.knots
     el_panel, _ = panel_labels(shell)
     stray, knot_issues = stray_knots(shell, knots)
@@ -381,6 +384,20 @@ def _analyse(
         convergence, found = _mesh_study(model, job, governing, first, folder, executable)
         issues += found
 
+    imperfect = None
+    if st.gnia and mode_shape is not None and math.isfinite(first):
+        imperfect = gnia(
+            shell,
+            ccx.combine(cases, list(governing.factors), governing.name),
+            mode_shape,
+            (first, fy / max(float(vm_el[uls.index(governing)].max()), 1e-300)),
+            job,
+            folder,
+            1,  # one thread, as the buckling runs: SPOOLES on two varies in the last digits
+            executable,
+        )
+        issues += imperfect.issues
+
     # ---- bolts -----------------------------------------------------------------------------
     bolts_summary, bolt_issues = bolt_checks(
         shell, joint, dat, f_uls, [c.name for c in uls], job, origin
@@ -422,6 +439,8 @@ def _analyse(
         "bolts": bool(bolts_summary.get("ok", True)),
         "welds": bool(welds_summary["ok"]),
     }
+    if imperfect is not None:
+        checks["gnia"] = imperfect.ok
     seconds = time.perf_counter() - started
     files = tuple(sorted(p.name for p in folder.iterdir() if p.is_file())) if keep else ()
     summary = {
@@ -438,6 +457,9 @@ def _analyse(
         "seconds": {
             "static": round(run.seconds, 2),
             "buckling": round(brun.seconds, 2),
+            "gnia": None
+            if imperfect is None
+            else round(sum(p.seconds for p in imperfect.paths), 2),
             "total": round(seconds, 2),
         },
         "mesh": {
@@ -456,11 +478,7 @@ def _analyse(
                 }
                 for i, g in enumerate(shell.groups)
             },
-            "stiffeners": (
-                "mass lumped on the panel corner lines, stiffness not modelled"
-                if mass["lumped_stiffeners_kg"] > 0
-                else "none in the model"
-            ),
+            "stiffeners": _stiffeners_in(shell, mass["lumped_stiffeners_kg"]),
         },
         "forming": forming,
         "bolt_layout": layout,
@@ -515,6 +533,7 @@ def _analyse(
             "convergence": convergence,
             "modes": modes[: max(MIN_POSITIVE_MODES, 10)],
             "note": local_note,
+            "gnia": None if imperfect is None else imperfect.summary(),
             "ok": checks["buckling"],
         },
         "checks": checks,
@@ -552,14 +571,26 @@ def _equations(log_path: Path) -> int:
     return 0
 
 
+def _stiffeners_in(shell: ShellModel, lumped_kg: float) -> str:
+    """How the corner stiffeners are in the model, for the summary."""
+    names = [g.name for g in shell.groups]
+    plates = int((shell.group == names.index("STF")).sum()) if "STF" in names else 0
+    text = (
+        f"{plates} S8R plates tied to their ribs at both ends (hinged weld lines)" if plates else ""
+    )
+    if lumped_kg > 0:
+        text += ("; " if text else "") + f"{lumped_kg:g} kg lumped, stiffness not modelled"
+    return text or "none in the model"
+
+
 def _part_of(shell: ShellModel, e: int, panel_ids, p: int) -> str:
     name = shell.groups[shell.group[e]].name
     el_panel, el_side = panel_labels(shell)
     own, other = el_panel[e]
-    if name == "TOP":
-        return f"{panel_ids[own]}-TOP"
-    if name == "BOT":
-        return f"{panel_ids[own]}-BOT"
+    if name in ("TOP", "BOT"):
+        return f"{panel_ids[own]}-{name}"
+    if name == "STF":
+        return f"{panel_ids[own]} corner stiffener"
     side = int(el_side[e])
     label = f"{panel_ids[own]}-RIB-{side}"
     if other >= 0:

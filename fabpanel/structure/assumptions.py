@@ -81,17 +81,17 @@ def assumptions(job, reference_height_m: float | None, sprung: int) -> list[str]
             "as a couple over the rib thickness, read at the edge nodes of the model (stresses "
             "extrapolated from the elements' integration points)"
         ),
-        "corner stiffeners are mass only (no stiffness)",
+        (
+            "corner stiffeners: S8R plates between the sheets' mid-surfaces, their ends tied to "
+            "the ribs' translations at stiffener_offset from the corner (the weld lines as "
+            "hinges; not tied to the sheets)"
+        ),
         (
             f"supports: {st.supports} boundary ribs, {st.support_fixity} at their anchor-bolt "
             "nodes (mid-depth; every rib node when fixed); foundations rigid"
         ),
         "material linear elastic; von Mises at the shell faces against f_y with gamma_M0 = 1.0",
-        (
-            f"buckling: linear (LBA) with a knock-down of {loads.buckling_knockdown:.3g}; no "
-            "geometrically nonlinear analysis with imperfections (GNIA) and no mesh-convergence "
-            "study"
-        ),
+        _buckling(job),
         (
             f"{sprung} sheets sprung onto their ribs: their locked-in bending E t / (2 R) is "
             "added to their ULS stress; rolled sheets' residual stresses are not modelled"
@@ -100,3 +100,27 @@ def assumptions(job, reference_height_m: float | None, sprung: int) -> list[str]
         ),
     ]
     return out
+
+
+def _buckling(job) -> str:
+    """What the buckling check does and leaves out."""
+    st = job.structure
+    text = f"buckling: linear (LBA) with a knock-down of {job.loads.buckling_knockdown:.3g}"
+    text += (
+        "; the first factor's mesh convergence checked at finer sizes"
+        if st.buckling_convergence
+        else "; no mesh-convergence study"
+    )
+    if not st.gnia:
+        return text + "; no geometrically nonlinear analysis with imperfections (GNIA)"
+    amplitude = (
+        f"{st.imperfection_amplitude:g} mm as given"
+        if st.imperfection_amplitude is not None
+        else f"EN 1993-1-6 §8.7.2's dimple amplitude for tolerance class {st.tolerance_class} "
+        "(Table 8.8 U_n1 = U_n2, n_i = 25, l_g = 4 sqrt(r t) capped at the panel size)"
+    )
+    return text + (
+        f"; GNIA: the first LBA mode as the imperfection, {amplitude}, both signs, the "
+        "governing combination ramped with NLGEOM to its limit point; elastic (no yielding: "
+        f"not a GMNIA), the limit factor required to reach gamma_M1 = {st.gamma_m1:g}"
+    )

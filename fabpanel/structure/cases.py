@@ -2,7 +2,7 @@
 
 ``en1991`` (default, :mod:`.actions`):
 
-- ``G``: self-weight (the lumped stiffener masses included);
+- ``G``: self-weight (every element, the stiffener plates included, and any lumped mass);
 - ``S``: snow ``mu_1 C_e C_t s_k`` on the horizontal projection of the top sheet, mu_1 by each
   element's pitch (nothing above 60 degrees); ``S1``-``S4``: the half-span cases, one half of the
   plan (split through its centroid across either principal axis) at half the load, as EN
@@ -55,7 +55,7 @@ def load_cases(
 ) -> tuple[list[ccx.LoadCase], dict[str, CaseInfo], list[Issue]]:
     """The characteristic cases (see the module docstring), what each is, and the warnings."""
     cases = [ccx.LoadCase("G", gravity=np.array([0.0, 0.0, -GRAVITY]))]
-    info = {"G": CaseInfo("G", "self-weight (g = 9.81 m/s2), corner stiffeners lumped")}
+    info = {"G": CaseInfo("G", "self-weight (g = 9.81 m/s2)")}
     top = shell.group == 0
     if job.loads.code == "thesis":
         more, more_info = _thesis_cases(shell, job.loads, top)

@@ -114,6 +114,27 @@ def combine(cases: list[LoadCase], factors: list[float], name: str) -> LoadCase:
     return LoadCase(name, gravity, forces)
 
 
+@dataclass(frozen=True)
+class NonlinearStep:
+    """A geometrically nonlinear static step (``*STEP, NLGEOM``): ``case`` ramped from nothing
+    at step time 0 to all of it at 1 by CalculiX's automatic increments (``first``, ``largest``
+    and ``smallest`` fractions of the step, at most ``increments``); the ``monitor`` nodes'
+    displacements are printed at every converged increment (:func:`read_history`). Past a limit
+    point CalculiX cuts the increment down to ``smallest`` and stops with
+    :data:`LIMIT_REACHED`."""
+
+    case: LoadCase
+    monitor: np.ndarray
+    first: float = 0.2
+    largest: float = 0.2
+    smallest: float = 1e-3
+    increments: int = 200
+
+
+#: how CalculiX ends a load-controlled nonlinear step that meets a limit point
+LIMIT_REACHED = "increment size smaller than minimum"
+
+
 def _ids(values: np.ndarray, per_line: int = 16) -> str:
     values = np.asarray(values).ravel() + 1
     lines = [", ".join(map(str, values[i : i + per_line])) for i in range(0, len(values), per_line)]
@@ -136,10 +157,11 @@ def write_deck(
     buckle: LoadCase | None = None,
     modes: int = 10,
     title: str = "fabpanel",
+    nonlinear: NonlinearStep | None = None,
 ) -> Path:
-    """Write a CalculiX deck: the mesh, sections, supports, one ``*STATIC`` step per case and
-    optionally one ``*BUCKLE`` step with ``modes`` factors. Node and element numbers are the
-    model's indices + 1. Returns ``path``."""
+    """Write a CalculiX deck: the mesh, sections, supports, one ``*STATIC`` step per case,
+    optionally one ``*BUCKLE`` step with ``modes`` factors and optionally one geometrically
+    nonlinear step. Node and element numbers are the model's indices + 1. Returns ``path``."""
     path = Path(path)
     nq = len(model.quads)
     out: list[str] = [f"** {title}: written by fabpanel (units N, mm, t, s)"]
@@ -187,6 +209,11 @@ def write_deck(
     springs = model.springs if model.springs is not None and len(model.springs.nodes) else None
     if springs is not None:
         out += _spring_cards(springs, nq + len(model.triangles))
+    ties = model.ties if model.ties is not None and len(model.ties.nodes) else None
+    tied = ties is not None
+    if ties is not None:
+        out += _tie_cards(ties)
+        out += ["*NSET, NSET=NTIE", _ids(ties.nodes)]
     out.append("*BOUNDARY")
     if len(supported):
         out.append("NSUPP, 1, 3")
@@ -213,6 +240,9 @@ def write_deck(
         if len(supported):
             # per node (the reactions per support) and the total
             out += ["*NODE PRINT, NSET=NSUPP, TOTALS=YES", "RF"]
+        if tied:
+            # CalculiX leaves a tie's pull on a restrained master out of its RF (.stiffeners)
+            out += ["*NODE PRINT, NSET=NTIE", "RF"]
         if s == 0:
             out += ["*EL PRINT, ELSET=EALL, TOTALS=ONLY", "EMAS"]
         if springs is not None:
@@ -225,8 +255,32 @@ def write_deck(
         if not cases:
             out += ["*EL PRINT, ELSET=EALL, TOTALS=ONLY", "EMAS"]
         out += ["*NODE FILE", "U", "*END STEP"]
+    if nonlinear is not None:
+        n = nonlinear
+        out += ["*NSET, NSET=NMON", _ids(np.unique(n.monitor))]
+        out += [
+            f"** {n.case.name} ramped, geometrically nonlinear",
+            f"*STEP, NLGEOM, INC={n.increments}",
+        ]
+        out += ["*STATIC", f"{n.first:.6g}, 1.0, {n.smallest:.6g}, {n.largest:.6g}"]
+        out += loads(n.case)
+        out += ["*NODE PRINT, NSET=NMON", "U", "*END STEP"]
     path.write_text("\n".join(out) + "\n")
     return path
+
+
+def _tie_cards(ties) -> list[str]:
+    """``*EQUATION`` for each tied node and translation: ``u - sum w u_master = 0`` (weights
+    below 1e-12 left out), four terms a line as CalculiX reads them."""
+    out = ["*EQUATION"]
+    for node, masters, weights in zip(ties.nodes, ties.masters, ties.weights, strict=True):
+        keep = np.abs(weights) > 1e-12
+        for d in (1, 2, 3):
+            terms = [f"{node + 1}, {d}, 1.0"]
+            terms += [f"{m + 1}, {d}, {-w:.12g}" for m, w in zip(masters[keep], weights[keep])]
+            out.append(str(len(terms)))
+            out += [", ".join(terms[i : i + 4]) for i in range(0, len(terms), 4)]
+    return out
 
 
 def _spring_cards(springs, first: int) -> list[str]:
@@ -274,12 +328,17 @@ class CcxRun:
 
 
 def run_ccx(
-    deck: Path, threads: int = 1, timeout: float | None = None, executable: str | None = None
+    deck: Path,
+    threads: int = 1,
+    timeout: float | None = None,
+    executable: str | None = None,
+    tolerate: str | None = None,
 ) -> CcxRun:
     """Run ccx on ``deck`` in its folder. Raises :class:`CcxMissing` without ccx and
     :class:`~fabpanel.errors.SolverError` (with the first error line of the log) when the run
-    fails."""
-    return run_ccx_together([deck], threads, timeout, executable)[0]
+    fails; a run whose only error line contains ``tolerate`` (such as :data:`LIMIT_REACHED`)
+    has not failed."""
+    return run_ccx_together([deck], threads, timeout, executable, tolerate)[0]
 
 
 def run_ccx_together(
@@ -287,6 +346,7 @@ def run_ccx_together(
     threads: int = 1,
     timeout: float | None = None,
     executable: str | None = None,
+    tolerate: str | None = None,
 ) -> list[CcxRun]:
     """Run ccx on each of ``decks`` at the same time, ``threads`` each, all started from this
     thread (a ``preexec_fn`` is not safe from other threads) and waited for; the first failure
@@ -318,7 +378,7 @@ def run_ccx_together(
         )
         running.append((deck, stem, log_path, handle, proc))
     try:
-        return _finish(running, started, timeout, threads)
+        return _finish(running, started, timeout, threads, tolerate)
     except BaseException:  # a signal or an error: no CalculiX is left running
         for *_, proc in running:
             if proc.poll() is None:
@@ -327,7 +387,9 @@ def run_ccx_together(
         raise
 
 
-def _finish(running: list, started: float, timeout: float | None, threads: int) -> list[CcxRun]:
+def _finish(
+    running: list, started: float, timeout: float | None, threads: int, tolerate: str | None
+) -> list[CcxRun]:
     """Wait for the ``running`` CalculiX processes and read how each ended."""
     runs, failure = [], None
     for deck, stem, log_path, handle, proc in running:
@@ -346,9 +408,19 @@ def _finish(running: list, started: float, timeout: float | None, threads: int) 
         seconds = time.perf_counter() - started
         peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
         text = log_path.read_text(errors="replace")
-        error = next((line.strip() for line in text.splitlines() if "*ERROR" in line), None)
+        error = next(
+            (
+                line.strip()
+                for line in text.splitlines()
+                if "*ERROR" in line and not (tolerate and tolerate in line)
+            ),
+            None,
+        )
         dat, frd = stem.with_suffix(".dat"), stem.with_suffix(".frd")
-        if failure is None and (proc.returncode != 0 or error or not dat.is_file()):
+        # ccx exits 201 at a tolerated error (a limit point reached)
+        tolerated = bool(tolerate) and tolerate in text
+        code_failed = proc.returncode != 0 and not tolerated
+        if failure is None and (code_failed or error or not dat.is_file()):
             detail = error or f"exit code {proc.returncode}"
             failure = SolverError(f"CalculiX failed on {deck.name}: {detail} (log: {log_path})")
         log.info("ccx %s: %.1f s, %d threads", deck.name, seconds, threads)
@@ -374,6 +446,8 @@ class DatResults:
     #: spring nodes' ids and displacements (n, 3)
     spring_energy: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
     spring_nodes: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
+    #: per static step, the tied nodes' ids and RF (n, 3), N (:mod:`.stiffeners`)
+    tie_forces: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
 
 
 _FLOAT = r"[-+]?\d*\.?\d+(?:[eE][-+]?\d+)?"
@@ -399,15 +473,16 @@ def read_dat(path: Path) -> DatResults:
         text,
     ):
         result.forces.append(np.array([float(match.group(i)) for i in (1, 2, 3)]))
-    for block in re.split(r"\n\s*forces \(fx,fy,fz\) for set \S+ and time\s+\S+\s*\n", text)[1:]:
+    parts = re.split(r"\n\s*forces \(fx,fy,fz\) for set (\S+) and time\s+\S+\s*\n", text)
+    for name, block in zip(parts[1::2], parts[2::2]):
         rows = re.findall(
             rf"^\s*(\d+)\s+({_FLOAT})\s+({_FLOAT})\s+({_FLOAT})\s*$",
-            block.split("total force")[0],
+            _until_next(block),  # up to "total force", or the next block where none is printed
             re.MULTILINE,
         )
         ids = np.array([int(r[0]) for r in rows], int)
         values = np.array([[float(v) for v in r[1:]] for r in rows]).reshape(-1, 3)
-        result.node_forces.append((ids, values))
+        (result.tie_forces if name == "NTIE" else result.node_forces).append((ids, values))
     for block in re.split(
         r"\n\s*internal energy \(element, energy\) for set ESPR and time\s+\S+\s*\n", text
     )[1:]:
@@ -438,6 +513,24 @@ def read_dat(path: Path) -> DatResults:
         rows = re.findall(rf"^\s+(\d+)\s+({_FLOAT})\s*$", block[-1], re.MULTILINE)
         result.buckling = np.array([float(v) for _, v in rows])
     return result
+
+
+def read_history(path: Path, name: str = "NMON") -> tuple[np.ndarray, np.ndarray]:
+    """The step times of a nonlinear step's converged increments and the displacements of the
+    node set ``name`` at each, ``(k,)`` and ``(k, n, 3)`` (``*NODE PRINT`` once an increment)."""
+    text = Path(path).read_text(errors="replace")
+    times, values = [], []
+    heading = rf"\n\s*displacements \(vx,vy,vz\) for set {name} and time\s+({_FLOAT})\s*\n"
+    parts = re.split(heading, text)
+    for time_text, block in zip(parts[1::2], parts[2::2]):
+        rows = re.findall(
+            rf"^\s*\d+\s+({_FLOAT})\s+({_FLOAT})\s+({_FLOAT})\s*$",
+            _until_next(block),
+            re.MULTILINE,
+        )
+        times.append(float(time_text))
+        values.append([[float(v) for v in r] for r in rows])
+    return np.array(times), np.array(values, dtype=float).reshape(len(times), -1, 3)
 
 
 # --------------------------------------------------------------------------------------------

@@ -24,10 +24,12 @@ What the shell model simplifies, and how the mass is kept right (checked against
 - bolt holes and access openings (``Part.holes``) are taken off the density of their part kind
   (their stiffness loss is ignored: a 13 mm hole every 250 mm in an 8 mm rib);
 - boundary ribs sit on the rib plane, ``t_rib / 2`` outside their true mid-plane;
-- corner stiffeners are not meshed: their ends lie ``stiffener_offset`` along the sides, between
-  the nodes of a structured panel mesh (meshing them would need triangles and many more
-  elements). Their mass is lumped on the panel's corner line (1/6, 2/3, 1/6 over its three
-  nodes) and their stiffness is left out, which is on the safe side for stresses and buckling.
+- corner stiffeners are S8R plates of their own (:mod:`.stiffeners`): their ends lie
+  ``stiffener_offset`` along the sides, between the nodes of the structured rib mesh, so each
+  end node is tied to its rib element by its shape functions (``*EQUATION``, translations: the
+  weld lines act as hinges); their group's density gives the stiffener parts' mass. A
+  stiffener whose corner has no rib nodes on both sides keeps the old treatment: its mass
+  lumped on the panel's corner line (1/6, 2/3, 1/6 over its three nodes), no stiffness.
 - a panel the build stage could not build (no parts) is meshed all the same: it is part of the
   design, and leaving a hole in the shell would change every load path. Its sheets and ribs get
   the hole allowance of the built panels (holes per area), it has no stiffener mass.
@@ -44,6 +46,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ..errors import InputError
+from .stiffeners import Ties, stiffener_plates
 
 #: nodes closer than this are one node, mm. Shared samples are bit-identical; interpolated side
 #: nodes agree to round-off (1e-9 mm); different nodes of a panel are at least a sheet
@@ -125,6 +128,8 @@ class ShellModel:
         ``s + 1``: on the top sheet, at mid-depth, on the bottom sheet (-1 where the side has
         no rib of its own: the neighbour's, in a rigid model).
     springs : the bolted joints' connectors (:class:`Springs`) or None.
+    ties : nodes tied to others by linear constraints (:class:`.stiffeners.Ties`: the corner
+        stiffeners' ends on their ribs) or None.
     load_scale : (e + f,) float or None
         area loads (snow, wind) on an element are multiplied by it: a bolted model's sheets
         stop at their ribs' mid-planes, and the load on the strip over the joint is spread
@@ -145,6 +150,7 @@ class ShellModel:
     rib_stations: np.ndarray | None = None
     springs: Springs | None = None
     load_scale: np.ndarray | None = None
+    ties: Ties | None = None
 
     @property
     def n_elements(self) -> int:
@@ -283,6 +289,9 @@ class SandwichSettings:
     #: stopping at it, ``joint_offset`` mm in from the joint plane (the rib's mid-plane)
     joints: str = "rigid"
     joint_offset: float = 0.0
+    #: the corner stiffeners' thickness and how far along each side their ends lie
+    t_stf: float = 0.0
+    stiffener_offset: float = 0.0
 
 
 def sandwich_settings(job, divisions: int) -> SandwichSettings:
@@ -296,6 +305,8 @@ def sandwich_settings(job, divisions: int) -> SandwichSettings:
         t_top=bu.t_top,
         t_bot=bu.t_bot,
         t_rib=bu.t_rib,
+        t_stf=bu.t_stf,
+        stiffener_offset=bu.stiffener_offset,
         rib_height=bu.rib_height,
         buildup=bu.kind,
         material=Material(mat.name, float(mat.E), float(mat.nu), float(mat.density), float(mat.fy)),
@@ -516,8 +527,51 @@ def _mass_corrections(
         for g, grp in enumerate(groups):
             if grp.name in ("RIB", "RIB2"):
                 groups[g] = ShellGroup(grp.name, grp.thickness, factor)
-        lumped = _stiffener_masses(model, developed, parts, grid, nrm, settings)
+        model = model.replace(groups=tuple(groups))
+        model, lumped_parts = _with_stiffeners(model, developed, parts, settings)
+        groups = list(model.groups)
+        lumped = _stiffener_masses(model, developed, lumped_parts, grid, nrm, settings)
     return model.replace(groups=tuple(groups), lumped_mass=lumped)
+
+
+def _with_stiffeners(model: ShellModel, developed, parts, settings) -> tuple[ShellModel, list]:
+    """The model with a plate per stiffener part (:mod:`.stiffeners`) in a group ``STF`` whose
+    density gives the parts' mass, and the stiffener parts that got none (their mass is lumped
+    by the caller)."""
+    stiffeners = [p for p in parts if p.kind == "stiffener"]
+    if not stiffeners:
+        return model, []
+    index = {pid: i for i, pid in enumerate(developed.panel_ids)}
+    corners = [(index[p.panel_id], int(p.id.rsplit("-", 1)[-1])) for p in stiffeners]
+    neighbours = np.asarray(developed.layout.side_neighbours)
+    nodes, quads, made, ties = stiffener_plates(
+        model, neighbours, corners, settings.stiffener_offset
+    )
+    if not len(quads):
+        return model, stiffeners
+    nq, g = len(model.quads), len(model.groups)
+    panels = np.array([c[0] for c, m in zip(corners, made) if m])
+
+    def inserted(values, new):
+        return None if values is None else np.insert(values, nq, new, axis=0)
+
+    stiffened = model.replace(
+        nodes=np.concatenate([model.nodes, nodes]),
+        quads=np.concatenate([model.quads, quads]),
+        group=inserted(model.group, np.full(len(quads), g)),
+        groups=(*model.groups, ShellGroup("STF", settings.t_stf)),
+        panel=inserted(model.panel, np.stack([panels, np.full(len(panels), -1)], axis=1)),
+        side=inserted(model.side, np.full(len(quads), -1)),
+        load_scale=inserted(model.load_scale, np.ones(len(quads))),
+        ties=ties,
+    )
+    area = float(stiffened.element_areas()[nq : nq + len(quads)].sum())
+    mass = sum(p.mass for p, m in zip(stiffeners, made) if m)
+    factor = mass / (settings.material.density * settings.t_stf * area)
+    groups = list(stiffened.groups)
+    groups[g] = ShellGroup("STF", settings.t_stf, factor)
+    left = [p for p, m in zip(stiffeners, made) if not m]
+    return stiffened.replace(groups=tuple(groups)), left
 
 
 def _rib_areas(model, developed, settings, areas) -> tuple[float, float]:
@@ -550,8 +604,8 @@ def _rib_areas(model, developed, settings, areas) -> tuple[float, float]:
 
 
 def _stiffener_masses(model, developed, parts, grid, nrm, settings) -> np.ndarray | None:
-    """(n,) kg: every stiffener part's mass on its panel's corner line (top 1/6, mid 2/3,
-    bottom 1/6); ``None`` without stiffeners."""
+    """(n,) kg: the mass of every stiffener part in ``parts`` on its panel's corner line (top
+    1/6, mid 2/3, bottom 1/6); ``None`` without any."""
     stiffeners = [p for p in parts if p.kind == "stiffener"]
     if not stiffeners:
         return None

@@ -100,6 +100,7 @@ def run_static(
         merged.node_forces += dat.node_forces
         merged.spring_energy += dat.spring_energy
         merged.spring_nodes += dat.spring_nodes
+        merged.tie_forces += dat.tie_forces
         merged.mass += dat.mass if k == 0 else []
         displacement += [a for _, _, a in sorted(frd.results("DISP"), key=lambda r: r[1])]
         stress += [a for _, _, a in sorted(frd.results("STRESS"), key=lambda r: r[1])]

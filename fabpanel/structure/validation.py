@@ -2,7 +2,9 @@
 ``area_forces``/``edge_forces``, ``write_deck``) and CalculiX: they validate the element, the
 load integration, the deck and the result reading together. References: MacNeal & Harder, "A
 proposed standard set of problems to test finite element accuracy" (1985); Timoshenko &
-Woinowsky-Krieger, "Theory of plates and shells" (1959), k = 4 for a square plate.
+Woinowsky-Krieger, "Theory of plates and shells" (1959), k = 4 for a square plate; Fung &
+Kaplan, "Buckling of low arches or curved beams of small curvature", NACA TN 2840 (1952), and
+Timoshenko & Gere, "Theory of elastic stability" (1961), for the shallow arch's snap-through.
 
 Each function writes its deck into ``folder`` and returns ``{"value", "reference", "error",
 "elements", "seconds"}`` plus what the tests pin.
@@ -10,6 +12,7 @@ Each function writes its deck into ``folder`` and returns ``{"value", "reference
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -142,3 +145,64 @@ def plate_buckling(folder, n: int = 16) -> dict:
         dat_factors=dat.buckling.tolist(),
         load_N=load.sum(axis=0).tolist(),
     )
+
+
+def arch_limit_load(span: float, t: float, rise: float, E: float, width: float) -> float:
+    """Snap-through load q0 (N per mm of span) of a shallow pinned sinusoidal arch under the
+    load q0 sin(pi x / L), both ends immovable (Fung & Kaplan 1952): with the shape a sin(pi x / L)
+    under load, bending and the axial force N = E A (pi/L)^2 (e^2 - a^2) / 4 balance
+    q0 (L/pi)^4 / (E A) = r^2 (e - a) + a (e^2 - a^2) / 4 (r^2 = I / A), whose maximum over a is at
+    a^2 = (e^2 - 4 r^2) / 3. Valid for 2 r < e < 4.69 r: a lower arch does not snap, a higher
+    one bifurcates into the antisymmetric mode first."""
+    r2 = t * t / 12.0
+    if not 4.0 * r2 < rise * rise < 22.0 * r2:
+        raise ValueError(f"rise {rise} is outside the symmetric snap-through range for t = {t}")
+    a = math.sqrt((rise * rise - 4.0 * r2) / 3.0)
+    area = width * t
+    return (np.pi / span) ** 4 * E * area * (r2 * (rise - a) + a * (rise * rise - a * a) / 4.0)
+
+
+def shallow_arch(folder, n: int = 24) -> dict:
+    """A flat strip 1000 x 40 x 10 mm (E 210 GPa, nu 0: a beam) given a half-sine imperfection
+    of 3.5 radii of gyration (10.1 mm) by :func:`.gnia.imperfect`, its ends pinned and
+    immovable, under a half-sine load ramped with NLGEOM (:func:`.gnia.load_path`) to 1.3 x
+    the analytic snap-through load (:func:`arch_limit_load`): the limit factor found against
+    1.0. Exercises the whole GNIA chain: the imperfection, the NLGEOM deck, the increments and
+    the limit read back."""
+    from .gnia import imperfect, load_path
+
+    span, width, t = 1000.0, 40.0, 10.0
+    rise = 3.5 * t / math.sqrt(12.0)
+    x = np.linspace(0.0, span, 2 * n + 1)
+    y = np.linspace(0.0, width, 3)
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    flat, index = patch_model(
+        np.stack([X, Y, np.zeros_like(X)], axis=-1), t, Material("ARCH", 2.1e5, 0.0, 1e-9, 1.0)
+    )
+    ends = np.r_[index[0], index[-1]]
+    flat = flat.replace(constraints=((ends[ends >= 0], (1, 2, 3)), (np.array([index[n, 0]]), (2,))))
+    shape = np.zeros_like(flat.nodes)
+    shape[:, 2] = np.sin(np.pi * flat.nodes[:, 0] / span)
+    arch = imperfect(flat, shape, rise)
+    q0 = arch_limit_load(span, t, rise, 2.1e5, width)
+    # nodal forces of a pressure q0 sin(pi x / L) / width: the unit pressure's nodal forces
+    # weighted by the sine at the node (within 0.2 % of the integrated load at 24 elements)
+    weights = np.sin(np.pi * arch.nodes[:, 0] / span)[:, None]
+    forces = area_forces(arch, q0 / width, (0.0, 0.0, -1.0)) * weights
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    path = load_path(
+        arch, LoadCase("q", forces=forces), 1.3, int(index[n, 0]), folder, "arch", 2, None, None
+    )
+    return {
+        "value": path.limit,
+        "reference": 1.0,
+        "error": path.limit - 1.0,
+        "elements": arch.n_elements,
+        "seconds": round(path.seconds, 2),
+        "limit_reached": path.limit_reached,
+        "increments": len(path.factors),
+        "q0_N_per_mm": q0,
+        "rise_mm": rise,
+        "crown_drop_mm": float(path.displacement[-1]),
+    }
