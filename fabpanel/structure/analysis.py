@@ -576,7 +576,7 @@ def _stiffeners_in(shell: ShellModel, lumped_kg: float) -> str:
     names = [g.name for g in shell.groups]
     plates = int((shell.group == names.index("STF")).sum()) if "STF" in names else 0
     text = (
-        f"{plates} S8R plates tied to their ribs at both ends (hinged weld lines)" if plates else ""
+        f"{plates} S8R plates tied to their ribs and sheets (hinged weld lines)" if plates else ""
     )
     if lumped_kg > 0:
         text += ("; " if text else "") + f"{lumped_kg:g} kg lumped, stiffness not modelled"

@@ -83,8 +83,8 @@ def assumptions(job, reference_height_m: float | None, sprung: int) -> list[str]
         ),
         (
             "corner stiffeners: S8R plates between the sheets' mid-surfaces, their ends tied to "
-            "the ribs' translations at stiffener_offset from the corner (the weld lines as "
-            "hinges; not tied to the sheets)"
+            "the ribs' translations at stiffener_offset from the corner and their top and bottom "
+            "edges to the sheets' (the weld lines as hinges)"
         ),
         (
             f"supports: {st.supports} boundary ribs, {st.support_fixity} at their anchor-bolt "

@@ -26,8 +26,9 @@ What the shell model simplifies, and how the mass is kept right (checked against
 - boundary ribs sit on the rib plane, ``t_rib / 2`` outside their true mid-plane;
 - corner stiffeners are S8R plates of their own (:mod:`.stiffeners`): their ends lie
   ``stiffener_offset`` along the sides, between the nodes of the structured rib mesh, so each
-  end node is tied to its rib element by its shape functions (``*EQUATION``, translations: the
-  weld lines act as hinges); their group's density gives the stiffener parts' mass. A
+  node is tied to the rib or sheet element it is welded to by that element's shape functions
+  (``*EQUATION``, translations: the weld lines act as hinges); their group's density gives the
+  stiffener parts' mass. A
   stiffener whose corner has no rib nodes on both sides keeps the old treatment: its mass
   lumped on the panel's corner line (1/6, 2/3, 1/6 over its three nodes), no stiffness.
 - a panel the build stage could not build (no parts) is meshed all the same: it is part of the
@@ -46,7 +47,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ..errors import InputError
-from .stiffeners import Ties, stiffener_plates
+from .stiffeners import Ties, stiffener_masses, with_stiffeners
 
 #: nodes closer than this are one node, mm. Shared samples are bit-identical; interpolated side
 #: nodes agree to round-off (1e-9 mm); different nodes of a panel are at least a sheet
@@ -129,7 +130,7 @@ class ShellModel:
         no rib of its own: the neighbour's, in a rigid model).
     springs : the bolted joints' connectors (:class:`Springs`) or None.
     ties : nodes tied to others by linear constraints (:class:`.stiffeners.Ties`: the corner
-        stiffeners' ends on their ribs) or None.
+        stiffeners' nodes on their ribs and sheets) or None.
     load_scale : (e + f,) float or None
         area loads (snow, wind) on an element are multiplied by it: a bolted model's sheets
         stop at their ribs' mid-planes, and the load on the strip over the joint is spread
@@ -528,50 +529,10 @@ def _mass_corrections(
             if grp.name in ("RIB", "RIB2"):
                 groups[g] = ShellGroup(grp.name, grp.thickness, factor)
         model = model.replace(groups=tuple(groups))
-        model, lumped_parts = _with_stiffeners(model, developed, parts, settings)
+        model, lumped_parts = with_stiffeners(model, developed, parts, settings)
         groups = list(model.groups)
-        lumped = _stiffener_masses(model, developed, lumped_parts, grid, nrm, settings)
+        lumped = stiffener_masses(model, developed, lumped_parts, grid, nrm, settings)
     return model.replace(groups=tuple(groups), lumped_mass=lumped)
-
-
-def _with_stiffeners(model: ShellModel, developed, parts, settings) -> tuple[ShellModel, list]:
-    """The model with a plate per stiffener part (:mod:`.stiffeners`) in a group ``STF`` whose
-    density gives the parts' mass, and the stiffener parts that got none (their mass is lumped
-    by the caller)."""
-    stiffeners = [p for p in parts if p.kind == "stiffener"]
-    if not stiffeners:
-        return model, []
-    index = {pid: i for i, pid in enumerate(developed.panel_ids)}
-    corners = [(index[p.panel_id], int(p.id.rsplit("-", 1)[-1])) for p in stiffeners]
-    neighbours = np.asarray(developed.layout.side_neighbours)
-    nodes, quads, made, ties = stiffener_plates(
-        model, neighbours, corners, settings.stiffener_offset
-    )
-    if not len(quads):
-        return model, stiffeners
-    nq, g = len(model.quads), len(model.groups)
-    panels = np.array([c[0] for c, m in zip(corners, made) if m])
-
-    def inserted(values, new):
-        return None if values is None else np.insert(values, nq, new, axis=0)
-
-    stiffened = model.replace(
-        nodes=np.concatenate([model.nodes, nodes]),
-        quads=np.concatenate([model.quads, quads]),
-        group=inserted(model.group, np.full(len(quads), g)),
-        groups=(*model.groups, ShellGroup("STF", settings.t_stf)),
-        panel=inserted(model.panel, np.stack([panels, np.full(len(panels), -1)], axis=1)),
-        side=inserted(model.side, np.full(len(quads), -1)),
-        load_scale=inserted(model.load_scale, np.ones(len(quads))),
-        ties=ties,
-    )
-    area = float(stiffened.element_areas()[nq : nq + len(quads)].sum())
-    mass = sum(p.mass for p, m in zip(stiffeners, made) if m)
-    factor = mass / (settings.material.density * settings.t_stf * area)
-    groups = list(stiffened.groups)
-    groups[g] = ShellGroup("STF", settings.t_stf, factor)
-    left = [p for p, m in zip(stiffeners, made) if not m]
-    return stiffened.replace(groups=tuple(groups)), left
 
 
 def _rib_areas(model, developed, settings, areas) -> tuple[float, float]:
@@ -601,30 +562,3 @@ def _rib_areas(model, developed, settings, areas) -> tuple[float, float]:
             trim += float((t_rib * (1 + np.maximum(0.0, -cos)) / np.maximum(along, 0.1)).sum())
     plate_area = shell_area * height_share - h * trim
     return shell_area, plate_area
-
-
-def _stiffener_masses(model, developed, parts, grid, nrm, settings) -> np.ndarray | None:
-    """(n,) kg: the mass of every stiffener part in ``parts`` on its panel's corner line (top
-    1/6, mid 2/3, bottom 1/6); ``None`` without any."""
-    stiffeners = [p for p in parts if p.kind == "stiffener"]
-    if not stiffeners:
-        return None
-    index = {pid: i for i, pid in enumerate(developed.panel_ids)}
-    q = grid.shape[1]
-    corner_ij = [(0, 0), (q - 1, 0), (q - 1, q - 1), (0, q - 1)]
-    off = settings.offsets
-    top_mid = off["top_outer"] - settings.t_top / 2
-    bot_mid = off["bottom_upper"] - settings.t_bot / 2
-    points, weights = [], []
-    for part in stiffeners:
-        corner = int(part.id.rsplit("-", 1)[-1])
-        i, j = corner_ij[corner]
-        p = index[part.panel_id]
-        g, nv = grid[p, i, j], nrm[p, i, j]
-        for depth, share in ((top_mid, 1 / 6), ((top_mid + bot_mid) / 2, 2 / 3), (bot_mid, 1 / 6)):
-            points.append(g + depth * nv)
-            weights.append(share * part.mass)
-    _, hit = cKDTree(model.nodes).query(np.array(points))
-    lumped = np.zeros(len(model.nodes))
-    np.add.at(lumped, hit, weights)
-    return lumped

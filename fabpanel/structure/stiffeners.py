@@ -18,9 +18,10 @@ edges buckled first in the vault example, at 56 against 685: a mode the welded p
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 #: Gauss-Newton iterations of the inverse S8R map (a flat element converges in two or three)
 INVERSE_ITERATIONS = 12
@@ -214,3 +215,71 @@ def stiffener_plates(model, neighbours: np.ndarray, corners: list[tuple[int, int
         np.array(made, bool),
         ties,
     )
+
+
+def with_stiffeners(model, developed, parts, settings) -> tuple:
+    """The model with a plate per stiffener part (:func:`stiffener_plates`) in a group ``STF`` whose
+    density gives the parts' mass, and the stiffener parts that got none (their mass is lumped
+    by the caller)."""
+    stiffeners = [p for p in parts if p.kind == "stiffener"]
+    if not stiffeners:
+        return model, []
+    index = {pid: i for i, pid in enumerate(developed.panel_ids)}
+    corners = [(index[p.panel_id], int(p.id.rsplit("-", 1)[-1])) for p in stiffeners]
+    neighbours = np.asarray(developed.layout.side_neighbours)
+    nodes, quads, made, ties = stiffener_plates(
+        model, neighbours, corners, settings.stiffener_offset
+    )
+    if not len(quads):
+        return model, stiffeners
+    nq, g = len(model.quads), len(model.groups)
+    panels = np.array([c[0] for c, m in zip(corners, made) if m])
+
+    def inserted(values, new):
+        return None if values is None else np.insert(values, nq, new, axis=0)
+
+    stiffened = model.replace(
+        nodes=np.concatenate([model.nodes, nodes]),
+        quads=np.concatenate([model.quads, quads]),
+        group=inserted(model.group, np.full(len(quads), g)),
+        # a group like the others (its class is the mesh's ShellGroup)
+        groups=(*model.groups, replace(model.groups[0], name="STF", thickness=settings.t_stf)),
+        panel=inserted(model.panel, np.stack([panels, np.full(len(panels), -1)], axis=1)),
+        side=inserted(model.side, np.full(len(quads), -1)),
+        load_scale=inserted(model.load_scale, np.ones(len(quads))),
+        ties=ties,
+    )
+    area = float(stiffened.element_areas()[nq : nq + len(quads)].sum())
+    mass = sum(p.mass for p, m in zip(stiffeners, made) if m)
+    factor = mass / (settings.material.density * settings.t_stf * area)
+    groups = list(stiffened.groups)
+    groups[g] = replace(groups[g], density_factor=factor)
+    left = [p for p, m in zip(stiffeners, made) if not m]
+    return stiffened.replace(groups=tuple(groups)), left
+
+
+def stiffener_masses(model, developed, parts, grid, nrm, settings) -> np.ndarray | None:
+    """(n,) kg: the mass of every stiffener part in ``parts`` on its panel's corner line (top
+    1/6, mid 2/3, bottom 1/6); ``None`` without any."""
+    stiffeners = [p for p in parts if p.kind == "stiffener"]
+    if not stiffeners:
+        return None
+    index = {pid: i for i, pid in enumerate(developed.panel_ids)}
+    q = grid.shape[1]
+    corner_ij = [(0, 0), (q - 1, 0), (q - 1, q - 1), (0, q - 1)]
+    off = settings.offsets
+    top_mid = off["top_outer"] - settings.t_top / 2
+    bot_mid = off["bottom_upper"] - settings.t_bot / 2
+    points, weights = [], []
+    for part in stiffeners:
+        corner = int(part.id.rsplit("-", 1)[-1])
+        i, j = corner_ij[corner]
+        p = index[part.panel_id]
+        g, nv = grid[p, i, j], nrm[p, i, j]
+        for depth, share in ((top_mid, 1 / 6), ((top_mid + bot_mid) / 2, 2 / 3), (bot_mid, 1 / 6)):
+            points.append(g + depth * nv)
+            weights.append(share * part.mass)
+    _, hit = cKDTree(model.nodes).query(np.array(points))
+    lumped = np.zeros(len(model.nodes))
+    np.add.at(lumped, hit, weights)
+    return lumped
