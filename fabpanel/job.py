@@ -872,6 +872,10 @@ class StructureSection(_Section):
     #: ``rigid``: the two ribs of a joint are one shell of twice the thickness (the joint a
     #: weld), for comparison
     joints: Literal["bolted", "rigid"] = "bolted"
+    #: ``plates``: each corner stiffener an S8R plate tied to its ribs and sheets
+    #: (:mod:`fabpanel.structure.stiffeners`); ``mass``: its mass lumped on the panel's corner
+    #: line, its stiffness left out (the model before the plates), for comparison
+    stiffeners: Literal["plates", "mass"] = "plates"
     #: span for the deflection limit (default: twice the largest plan distance to a support)
     span: PositiveLength | None = None
     #: buckling factors requested from CalculiX (the positive ones are kept; >= 5 are reported)

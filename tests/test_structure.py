@@ -402,6 +402,14 @@ def test_stiffener_plates_are_tied_to_their_ribs_and_holes_reach_the_shell_model
             rel = end - corners[c]
             along = np.linalg.norm(rel - (rel @ radial[c]) * radial[c])
             assert along == pytest.approx(offset, rel=0.02)
+    # stiffeners = "mass": the model before the plates, their mass lumped on the corner lines
+    lumped = sandwich_model(
+        model.developed,
+        sandwich_settings(job.replace(structure={"stiffeners": "mass"}), 2),
+        parts,
+    )
+    assert "STF" not in [g.name for g in lumped.groups] and lumped.ties is None
+    assert lumped.lumped_mass.sum() == pytest.approx(16 * 0.785)
     hole_mass = 10 * np.pi * 20.0**2 * top.thickness * job.material.density
     top_group = names.index("TOP")
     mass = lambda s: float(
@@ -470,10 +478,9 @@ def test_gnia_through_the_analysis_reports_both_signs_and_its_check(
     from fabpanel.structure.gnia import RAMP_OVER_LBA
 
     job, model = cylinder_model
-    job = job.replace(structure={"buckling_convergence": False, "element_size": "600 mm"})
+    job = job.replace(structure={"buckling_convergence": False, "element_size": "1.2 m"})
     without = vault_structure[1]  # gnia = false, the default
     found = analyse(model, job.replace(structure={"gnia": True}), folder=tmp_path)
-    print(found.summary["buckling"]["gnia"], found.summary["seconds"])
     g = found.summary["buckling"]["gnia"]
     assert without.summary["buckling"]["gnia"] is None and "gnia" not in without.summary["checks"]
     assert [p["sign"] for p in g["paths"]] == ["+", "-"]

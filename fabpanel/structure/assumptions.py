@@ -85,6 +85,9 @@ def assumptions(job, reference_height_m: float | None, sprung: int) -> list[str]
             "corner stiffeners: S8R plates between the sheets' mid-surfaces, their ends tied to "
             "the ribs' translations at stiffener_offset from the corner and their top and bottom "
             "edges to the sheets' (the weld lines as hinges)"
+            if st.stiffeners == "plates"
+            else "corner stiffeners are mass only, lumped on the panel corner lines (no "
+            'stiffness: [structure] stiffeners = "mass")'
         ),
         (
             f"supports: {st.supports} boundary ribs, {st.support_fixity} at their anchor-bolt "

@@ -290,6 +290,8 @@ class SandwichSettings:
     #: stopping at it, ``joint_offset`` mm in from the joint plane (the rib's mid-plane)
     joints: str = "rigid"
     joint_offset: float = 0.0
+    #: ``plates`` or ``mass`` (``[structure] stiffeners``)
+    stiffeners: str = "plates"
     #: the corner stiffeners' thickness and how far along each side their ends lie
     t_stf: float = 0.0
     stiffener_offset: float = 0.0
@@ -302,6 +304,7 @@ def sandwich_settings(job, divisions: int) -> SandwichSettings:
     return SandwichSettings(
         joints=job.structure.joints if bu.kind == "sandwich" else "rigid",
         joint_offset=bu.t_rib / 2 + bu.welds.erection_gap / 2,
+        stiffeners=job.structure.stiffeners,
         offsets=bu.offset_map,
         t_top=bu.t_top,
         t_bot=bu.t_bot,
@@ -529,7 +532,9 @@ def _mass_corrections(
             if grp.name in ("RIB", "RIB2"):
                 groups[g] = ShellGroup(grp.name, grp.thickness, factor)
         model = model.replace(groups=tuple(groups))
-        model, lumped_parts = with_stiffeners(model, developed, parts, settings)
+        lumped_parts = parts
+        if settings.stiffeners == "plates":
+            model, lumped_parts = with_stiffeners(model, developed, parts, settings)
         groups = list(model.groups)
         lumped = stiffener_masses(model, developed, lumped_parts, grid, nrm, settings)
     return model.replace(groups=tuple(groups), lumped_mass=lumped)
