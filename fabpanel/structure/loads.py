@@ -18,55 +18,17 @@ from __future__ import annotations
 import numpy as np
 
 from .mesh import ShellModel
+from .shapes import serendipity
 
 #: standard gravity, mm/s2
 GRAVITY = 9810.0
-
-
-def _serendipity(a: np.ndarray, b: np.ndarray):
-    """8-node serendipity shape functions and derivatives at (g,) points in [-1, 1]^2; node
-    order as S8R (corners (-1,-1), (1,-1), (1,1), (-1,1), then mid-sides)."""
-    ca, cb = np.array([-1, 1, 1, -1.0]), np.array([-1, -1, 1, 1.0])
-    A, B = a[:, None], b[:, None]
-    n_c = 0.25 * (1 + ca * A) * (1 + cb * B) * (ca * A + cb * B - 1)
-    da_c = 0.25 * ca * (1 + cb * B) * (2 * ca * A + cb * B)
-    db_c = 0.25 * cb * (1 + ca * A) * (ca * A + 2 * cb * B)
-    # mid-sides: (0,-1), (1,0), (0,1), (-1,0)
-    n_m = np.stack(
-        [
-            0.5 * (1 - A[:, 0] ** 2) * (1 - B[:, 0]),
-            0.5 * (1 + A[:, 0]) * (1 - B[:, 0] ** 2),
-            0.5 * (1 - A[:, 0] ** 2) * (1 + B[:, 0]),
-            0.5 * (1 - A[:, 0]) * (1 - B[:, 0] ** 2),
-        ],
-        1,
-    )
-    da_m = np.stack(
-        [
-            -A[:, 0] * (1 - B[:, 0]),
-            0.5 * (1 - B[:, 0] ** 2),
-            -A[:, 0] * (1 + B[:, 0]),
-            -0.5 * (1 - B[:, 0] ** 2),
-        ],
-        1,
-    )
-    db_m = np.stack(
-        [
-            -0.5 * (1 - A[:, 0] ** 2),
-            -B[:, 0] * (1 + A[:, 0]),
-            0.5 * (1 - A[:, 0] ** 2),
-            -B[:, 0] * (1 - A[:, 0]),
-        ],
-        1,
-    )
-    return np.c_[n_c, n_m], np.c_[da_c, da_m], np.c_[db_c, db_m]
 
 
 def _quad_rule():
     g = np.sqrt(0.6)
     x, w = np.array([-g, 0.0, g]), np.array([5, 8, 5]) / 9
     a, b = np.meshgrid(x, x, indexing="ij")
-    return (*_serendipity(a.ravel(), b.ravel()), np.outer(w, w).ravel())
+    return (*serendipity(a.ravel(), b.ravel()), np.outer(w, w).ravel())
 
 
 def _tri_rule():
