@@ -464,7 +464,8 @@ def _analyse(
         },
         "mesh": {
             "elements": shell.n_elements,
-            "S8R": len(shell.quads),
+            "S8R": int((np.array([g.element for g in shell.groups])[shell.group] == "S8R").sum()),
+            "S8": int((np.array([g.element for g in shell.groups])[shell.group] == "S8").sum()),
             "S6": len(shell.triangles),
             "nodes": len(shell.nodes),
             "elements_per_side": buckled.divisions,

@@ -203,11 +203,11 @@ def write_deck(
     )
     all_sets = []
     for g, group in enumerate(model.groups):
-        for conn, etype, offset in ((model.quads, "S8R", 0), (model.triangles, "S6", nq)):
+        for conn, etype, offset in ((model.quads, group.element, 0), (model.triangles, "S6", nq)):
             members = np.nonzero(model.group[offset : offset + len(conn)] == g)[0]
             if len(members) == 0:
                 continue
-            name = f"E{group.name}{'' if etype == 'S8R' else '_S6'}"
+            name = f"E{group.name}{'_S6' if etype == 'S6' else ''}"
             all_sets.append(name)
             out.append(f"*ELEMENT, TYPE={etype}, ELSET={name}")
             out.append(_rows(conn[members] + 1, members + offset))

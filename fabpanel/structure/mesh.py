@@ -7,6 +7,9 @@ neither locks nor hourglasses on thin curved steel: measured with CalculiX 2.20 
 Scordelis-Lo 8 x 8 quarter -0.15 %, simply supported plate buckling -0.9 % at 16 x 16, pinched
 hemisphere -0.3 %. Its quadratic edges also follow curved panel sides. **S6** (C3D15) is accepted
 for triangles where a mesh cannot avoid them; S3 (locks) and S4R (hourglasses) are never written.
+The corner stiffener plates are single **S8** elements (full integration): one S8R whose
+translations are all tied keeps a zero-energy mode in its free rotations, which buckled first at
+0.62 on a hyperbolic paraboloid (5.59 with S8, a bottom-sheet mode).
 
 The sandwich model (after the thesis, §7.3.2, "inclusion points"): every panel's top and bottom
 sheet is meshed on its mid-surface, every rib spans between the two sheet mid-surfaces on the
@@ -78,11 +81,14 @@ class ShellGroup:
     thickness : mm.
     density_factor : the material density is multiplied by it for this group (mass corrections,
         see the module docstring); stiffness is not scaled.
+    element : the CalculiX type of its quadrilaterals: ``S8R``, or ``S8`` (full integration)
+        for the corner stiffener plates (:mod:`.stiffeners`).
     """
 
     name: str
     thickness: float
     density_factor: float = 1.0
+    element: str = "S8R"
 
 
 @dataclass(frozen=True)
