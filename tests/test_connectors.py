@@ -100,7 +100,16 @@ def joints_compared(tmp_path_factory):
     developed = cylinder_developed(radius=4000.0, length=2400.0, arc=np.pi / 3)
     out = {}
     for joints in ("bolted", "rigid"):
-        job = fp.Job.from_dict({"structure": {"joints": joints, "buckling_convergence": False}})
+        # the stiffeners as masses (the plates' ties are tested in tests/test_structure.py)
+        job = fp.Job.from_dict(
+            {
+                "structure": {
+                    "joints": joints,
+                    "buckling_convergence": False,
+                    "stiffeners": "mass",
+                }
+            }
+        )
         model = fp.build(developed, job, jobs=1)
         folder = tmp_path_factory.mktemp(joints)
         out[joints] = (model, analyse(model, job, folder=folder), folder)
