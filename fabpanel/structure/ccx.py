@@ -246,6 +246,8 @@ def write_deck(
     if ties is not None:
         out += _tie_cards(ties)
         out += ["*NSET, NSET=NTIE", _ids(ties.nodes)]
+    if nonlinear is not None:  # model data: before the first step
+        out += ["*NSET, NSET=NMON", _ids(np.unique(nonlinear.monitor))]
     out.append("*BOUNDARY")
     if len(supported):
         out.append("NSUPP, 1, 3")
@@ -273,7 +275,8 @@ def write_deck(
             # per node (the reactions per support) and the total
             out += ["*NODE PRINT, NSET=NSUPP, TOTALS=YES", "RF"]
         if tied:
-            # CalculiX leaves a tie's pull on a restrained master out of its RF (.stiffeners)
+            # CalculiX leaves a tie's pull on a restrained master out of its RF
+            # (balance.with_tie_pull)
             out += ["*NODE PRINT, NSET=NTIE", "RF"]
         if s == 0:
             out += ["*EL PRINT, ELSET=EALL, TOTALS=ONLY", "EMAS"]
@@ -289,7 +292,6 @@ def write_deck(
         out += ["*NODE FILE", "U", "*END STEP"]
     if nonlinear is not None:
         n = nonlinear
-        out += ["*NSET, NSET=NMON", _ids(np.unique(n.monitor))]
         out += [
             f"** {n.case.name} ramped, geometrically nonlinear",
             f"*STEP, NLGEOM, INC={n.increments}",
