@@ -40,7 +40,14 @@ from .balance import (
 )
 from .bolt_checks import bolt_checks, corrected_reactions, write_bolts_csv
 from .bolt_layout import bolt_layout
-from .buckling import MIN_POSITIVE_MODES, buckle, linear_buckling, node_values, significant
+from .buckling import (
+    MIN_POSITIVE_MODES,
+    buckle_deck,
+    buckle_results,
+    linear_buckling,
+    node_values,
+    significant,
+)
 from .cases import load_cases, reference_height
 from .checks import (
     combinations,
@@ -208,17 +215,28 @@ def _sheet_edge_nodes(shell, developed, sides, n) -> np.ndarray:
     return np.unique(idx[d < 0.5 * float(np.ptp(shell.nodes, axis=0).max()) / max(n, 1)])
 
 
-def _mesh_study(model, job, governing, first: float, folder: Path, executable: str):
+def _study_deck(model, job, governing, k: int, folder: Path) -> Path:
+    """The mesh study's buckling deck at ``k`` elements per panel side (``buckle-k.inp``)."""
+    finer = shell_of(model, job, k)
+    finer_cases, _, _ = load_cases(finer, job)
+    case = ccx.combine(finer_cases, list(governing.factors), governing.name)
+    return buckle_deck(finer, case, folder, job.structure.buckling_modes, f"buckle-{k}")
+
+
+def _mesh_study(
+    model, job, governing, first: float, folder: Path, executable: str, done: dict[int, ccx.CcxRun]
+):
     """The buckling mesh study (:mod:`.convergence`): the governing combination's first
-    factor at one element per side fewer and, while it still changes, finer."""
+    factor at one element per side fewer and, while it still changes, finer; ``done`` holds
+    the runs already made (the coarser one runs beside the main buckling run)."""
     st, developed = job.structure, model.developed
     n = choose_divisions(developed, job)
 
     def first_at(k: int) -> float:
-        finer = shell_of(model, job, k)
-        finer_cases, _, _ = load_cases(finer, job)
-        case = ccx.combine(finer_cases, list(governing.factors), governing.name)
-        values, _, _ = buckle(finer, case, folder, st.buckling_modes, st, executable, f"buckle-{k}")
+        run = done.get(k) or ccx.run_ccx(
+            _study_deck(model, job, governing, k, folder), 1, st.timeout, executable
+        )
+        values, _ = buckle_results(run)
         positive = values[values > 0]
         return float(positive.min()) if len(positive) else math.inf
 
@@ -368,8 +386,13 @@ def _analyse(
     governing = uls[int(np.argmax(compression))]
 
     # ---- buckling --------------------------------------------------------------------------
+    # the mesh study's coarser run goes beside the main one (one thread each) where the
+    # memory held two static runs at once
+    n = choose_divisions(developed, job)
+    coarser = st.buckling_convergence and n > 1 and run.decks > 1
+    beside = [_study_deck(model, job, governing, n - 1, folder)] if coarser else []
     buckled = linear_buckling(
-        shell, cases, governing, (bottom, top), panel_ids, job, folder, executable
+        shell, cases, governing, (bottom, top), panel_ids, job, folder, executable, beside
     )
     issues += buckled.issues
     factors, modes, mode_shape, first = (
@@ -381,7 +404,8 @@ def _analyse(
     required, local_note, brun = buckled.required, buckled.note, buckled.run
     convergence: dict = {"checked": False}
     if st.buckling_convergence and math.isfinite(first):
-        convergence, found = _mesh_study(model, job, governing, first, folder, executable)
+        done = {n - 1: buckled.beside[0]} if coarser else {}
+        convergence, found = _mesh_study(model, job, governing, first, folder, executable, done)
         issues += found
 
     imperfect = None

@@ -40,6 +40,7 @@ class Buckling:
     note : why the factors cover the global modes only (a coarse mesh), or None.
     divisions : elements per panel side (from the top sheets' element count).
     run : the CalculiX run; issues : what the run leaves to say.
+    beside : the runs of the decks run beside the first one (the mesh study's coarser mesh).
     """
 
     factors: np.ndarray
@@ -51,42 +52,68 @@ class Buckling:
     divisions: int
     run: ccx.CcxRun
     issues: tuple[Issue, ...]
+    beside: tuple[ccx.CcxRun, ...] = ()
 
 
-def buckle(shell, case, folder: Path, modes: int, st, executable: str, stem: str = "buckle"):
-    """``(factors, mode shapes, run)`` of a ``*BUCKLE`` run of ``case`` asking ``modes``."""
-    deck = ccx.write_deck(
+def buckle_deck(shell, case, folder: Path, modes: int, stem: str = "buckle") -> Path:
+    """Write the ``*BUCKLE`` deck of ``case`` asking ``modes`` (``folder/stem.inp``)."""
+    return ccx.write_deck(
         shell,
         folder / f"{stem}.inp",
         buckle=case,
         modes=modes,
         title=f"fabpanel buckling under {case.name}",
     )
-    # one thread: SPOOLES on two threads let the higher buckling factors of a model with
-    # spring joints vary in their fourth digit from run to run (751.1 / 751.2), and the same
-    # job must give the same output; a second thread gains SPOOLES about 12 % (notes/fem.md)
-    run = ccx.run_ccx(deck, 1, st.timeout, executable)
+
+
+def buckle_results(run: ccx.CcxRun) -> tuple[np.ndarray, list[np.ndarray]]:
+    """``(factors, mode shapes)`` of a finished ``*BUCKLE`` run."""
     dat = ccx.read_dat(run.dat)
     frd = ccx.read_frd(run.frd)
     blocks = frd.results("DISP")
     factors = dat.buckling if len(dat.buckling) else np.array([v for v, _, _ in blocks])
     shapes = [a for _, _, a in blocks][-len(factors) :] if len(factors) else []
-    return np.asarray(factors, float), shapes, run
+    return np.asarray(factors, float), shapes
+
+
+def buckle(
+    shell, case, folder: Path, modes: int, st, executable: str, stem="buckle", beside=()
+) -> tuple[np.ndarray, list[np.ndarray], ccx.CcxRun, list[ccx.CcxRun]]:
+    """``(factors, mode shapes, run, beside's runs)`` of a ``*BUCKLE`` run of ``case`` asking
+    ``modes``, with the decks ``beside`` (written by the caller) run at the same time."""
+    deck = buckle_deck(shell, case, folder, modes, stem)
+    # one thread each: SPOOLES on two threads let the higher buckling factors of a model with
+    # spring joints vary in their fourth digit from run to run (751.1 / 751.2), and the same
+    # job must give the same output; a second thread gains SPOOLES about 12 % (notes/fem.md)
+    runs = ccx.run_ccx_together([deck, *beside], 1, st.timeout, executable)
+    factors, shapes = buckle_results(runs[0])
+    return factors, shapes, runs[0], runs[1:]
 
 
 def linear_buckling(
-    shell: ShellModel, cases, governing, surfaces, panel_ids, job, folder: Path, executable: str
+    shell: ShellModel,
+    cases,
+    governing,
+    surfaces,
+    panel_ids,
+    job,
+    folder: Path,
+    executable: str,
+    beside=(),
 ) -> Buckling:
     """The buckling run of the ``governing`` combination of ``cases``; ``surfaces`` are the
-    (bottom, top) rows of the expanded nodes (:func:`.ccx.surface_nodes`)."""
+    (bottom, top) rows of the expanded nodes (:func:`.ccx.surface_nodes`); the decks ``beside``
+    run at the same time as the first run (their runs in :attr:`Buckling.beside`)."""
     st = job.structure
     bottom, top = surfaces
     case = ccx.combine(cases, list(governing.factors), governing.name)
     asked = st.buckling_modes
-    factors, shapes, run = buckle(shell, case, folder, asked, st, executable)
+    factors, shapes, run, beside_runs = buckle(
+        shell, case, folder, asked, st, executable, beside=beside
+    )
     if (factors > 0).sum() < MIN_POSITIVE_MODES and asked < 4 * st.buckling_modes:
         asked *= 2
-        factors, shapes, run = buckle(shell, case, folder, asked, st, executable)
+        factors, shapes, run, _ = buckle(shell, case, folder, asked, st, executable)
     positive = np.nonzero(factors > 0)[0]
     positive = positive[np.argsort(factors[positive])]
     el_panel, _ = panel_labels(shell)
@@ -135,6 +162,7 @@ def linear_buckling(
         divisions=int(divisions),
         run=run,
         issues=tuple(issues),
+        beside=tuple(beside_runs),
     )
 
 

@@ -152,8 +152,11 @@ def _fixed(lines: list[bytes], start: int, width: int, count: int, kind=float) -
     """Columns of fixed width from equal-length lines, as an (n, count) array."""
     if not lines:
         return np.zeros((0, count))
-    size = max(len(line) for line in lines)
-    blob = b"".join(line.ljust(size) for line in lines)
+    size = len(lines[0])
+    blob = b"".join(lines)
+    if len(blob) != size * len(lines):  # lines of unequal length: pad them (rare)
+        size = max(map(len, lines))
+        blob = b"".join(line.ljust(size) for line in lines)
     chars = np.frombuffer(blob, dtype=np.uint8).reshape(len(lines), size)
     cols = chars[:, start : start + width * count].copy()
     text = cols.view(f"S{width}").reshape(len(lines), count)

@@ -46,26 +46,32 @@ class Ties:
     weights: np.ndarray
 
 
-def s8r_shape(xi: float, eta: float) -> tuple[np.ndarray, np.ndarray]:
-    """The eight S8R shape functions at ``(xi, eta)`` and their derivatives, (8,) and (8, 2)."""
-    n, d_xi, d_eta = serendipity(np.array([xi]), np.array([eta]))
-    return n[0], np.stack([d_xi[0], d_eta[0]], axis=1)
-
-
-def weights_at(element_nodes: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, float]:
-    """The shape-function weights (8,) of the point of an S8R element (``(8, 3)`` node
-    positions) nearest ``point``, and that point's distance from ``point``, mm."""
-    local = np.zeros(2)
+def inverse_map(
+    element_nodes: np.ndarray, points: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each of ``m`` S8R elements (``(m, 8, 3)`` node positions) the point nearest the
+    matching one of ``points`` (m, 3): its shape-function weights (m, 8), the point itself
+    (m, 3) and its distance (m,), mm. Gauss-Newton on the local coordinates, all pairs at once,
+    clipped to the element."""
+    local = np.zeros((len(points), 2))
     for _ in range(INVERSE_ITERATIONS):
-        n, d = s8r_shape(*local)
-        residual = point - n @ element_nodes
-        jacobian = element_nodes.T @ d  # (3, 2)
-        step = np.linalg.lstsq(jacobian, residual, rcond=None)[0]
-        local = np.clip(local + step, -1.0, 1.0)
-        if np.abs(step).max() < 1e-10:
+        n, d_xi, d_eta = serendipity(local[:, 0], local[:, 1])
+        residual = points - np.einsum("mk,mkd->md", n, element_nodes)
+        jacobian = np.stack(
+            [
+                np.einsum("mk,mkd->md", d_xi, element_nodes),
+                np.einsum("mk,mkd->md", d_eta, element_nodes),
+            ],
+            axis=2,
+        )  # (m, 3, 2)
+        normal = np.einsum("mdi,mdj->mij", jacobian, jacobian)
+        step = np.linalg.solve(normal, np.einsum("mdi,md->mi", jacobian, residual)[..., None])
+        local = np.clip(local + step[..., 0], -1.0, 1.0)
+        if not len(step) or np.abs(step).max() < 1e-10:
             break
-    n, _ = s8r_shape(*local)
-    return n, float(np.linalg.norm(point - n @ element_nodes))
+    n, _, _ = serendipity(local[:, 0], local[:, 1])
+    nearest = np.einsum("mk,mkd->md", n, element_nodes)
+    return n, nearest, np.linalg.norm(points - nearest, axis=1)
 
 
 def _along(line: np.ndarray, distance: float) -> tuple[int, float]:
@@ -106,39 +112,29 @@ def _rib_element_index(model, rib_groups: np.ndarray) -> dict[frozenset, int]:
     return found
 
 
-def _end_ties(model, stations, offset: float, index) -> tuple[np.ndarray, list, list]:
+def _end_query(model, stations, offset: float, index) -> tuple[np.ndarray, int]:
     """The stiffener end's three points (top, mid, bottom) ``offset`` along the rib from the
-    corner, on the rib element (the chord between stations moved onto its curved surface), and
-    for each the element's nodes and weights."""
+    corner, on the chord between stations (:func:`inverse_map` moves them onto the rib
+    element's curved surface), and that rib element."""
     top_line = model.nodes[stations[:, 0]]
     a, f = _along(top_line, offset)
     chord = (1 - f) * model.nodes[stations[a]] + f * model.nodes[stations[a + 1]]  # (3, 3)
-    e = index[frozenset((int(stations[a, 0]), int(stations[a + 1, 0])))]
-    element_nodes = model.nodes[model.quads[e]]
-    points, masters, weights = [], [], []
-    for point in chord:
-        w, _ = weights_at(element_nodes, point)
-        points.append(w @ element_nodes)
-        masters.append(model.quads[e])
-        weights.append(w)
-    return np.array(points), masters, weights
+    return chord, index[frozenset((int(stations[a, 0]), int(stations[a + 1, 0])))]
 
 
-def _sheet_tie(model, elements: np.ndarray, point: np.ndarray):
-    """The point of the sheet ``elements`` nearest ``point``: ``(that point, its element's
-    nodes, weights)``."""
-    best = None
-    for e in elements:
-        element_nodes = model.nodes[model.quads[e]]
-        w, distance = weights_at(element_nodes, point)
-        if best is None or distance < best[0]:
-            best = (distance, w @ element_nodes, model.quads[e], w)
-    assert best is not None
-    return best[1], best[2], best[3]
+def _nearest_of(model, candidates: list[np.ndarray], points: np.ndarray):
+    """For each point (q, 3) the nearest point of its candidate elements (the first of equal
+    ones): ``(weights (q, 8), that point (q, 3), the element (q,))``."""
+    owner = np.repeat(np.arange(len(points)), [len(c) for c in candidates])
+    elements = np.concatenate(candidates).astype(int)
+    w, nearest, distance = inverse_map(model.nodes[model.quads[elements]], points[owner])
+    order = np.lexsort((np.arange(len(owner)), distance, owner))
+    first = order[np.searchsorted(owner[order], np.arange(len(points)))]
+    return w[first], nearest[first], elements[first]
 
 
 def stiffener_plates(model, neighbours: np.ndarray, corners: list[tuple[int, int]], offset: float):
-    """The S8R plates of the stiffeners at ``corners`` ((panel, corner) pairs): ``(nodes (s*8,
+    """The S8 plates of the stiffeners at ``corners`` ((panel, corner) pairs): ``(nodes (s*8,
     3), quads (s, 8) numbered from len(model.nodes), made (len(corners),) bool, ties)`` (see the
     module docstring). Corner ``c`` lies between sides ``c - 1`` and ``c`` of its panel; a
     corner without rib nodes on both sides gets no plate (``made`` False)."""
@@ -148,62 +144,57 @@ def stiffener_plates(model, neighbours: np.ndarray, corners: list[tuple[int, int
     nq = len(model.quads)
     own = model.panel[:nq, 0]
     sheet_group = model.group[:nq]
-    first = len(model.nodes)
-    nodes: list[np.ndarray] = []
-    quads: list[np.ndarray] = []
-    made: list[bool] = []
-    tied: list[int] = []
-    masters: list[np.ndarray] = []
-    weights: list[np.ndarray] = []
+    made, chords, ribs, panels = [], [], [], []
     for p, c in corners:
         after = _corner_stations(model, neighbours, p, c, True)
         before = _corner_stations(model, neighbours, p, (c - 1) % 4, False)
         made.append(after is not None and before is not None)
-        if not made[-1]:
-            continue
-        end_a, m_a, w_a = _end_ties(model, before, offset, index)
-        end_b, m_b, w_b = _end_ties(model, after, offset, index)
-        # the top and bottom edges' middles on the sheets the plate is welded to
-        on_sheet = [
-            _sheet_tie(
-                model,
-                np.flatnonzero((own == p) & (sheet_group == names.index(sheet))),
-                0.5 * (end_a[row] + end_b[row]),
-            )
-            for sheet, row in (("TOP", 0), ("BOT", 2))
-        ]
-        k = first + 8 * len(quads)
-        # corners A top, B top, B bottom, A bottom; mid-sides top, B mid, bottom, A mid
-        nodes += [end_a[0], end_b[0], end_b[2], end_a[2]]
-        nodes += [on_sheet[0][0], end_b[1], on_sheet[1][0], end_a[1]]
-        quads.append(np.arange(k, k + 8))
-        for local, (m, w) in zip(
-            range(8),
-            (
-                (m_a[0], w_a[0]),
-                (m_b[0], w_b[0]),
-                (m_b[2], w_b[2]),
-                (m_a[2], w_a[2]),
-                on_sheet[0][1:],
-                (m_b[1], w_b[1]),
-                on_sheet[1][1:],
-                (m_a[1], w_a[1]),
-            ),
-        ):
-            tied.append(k + local)
-            masters.append(m)
-            weights.append(w)
-    ties = Ties(
-        np.array(tied, int),
-        np.array(masters, int).reshape(-1, 8),
-        np.array(weights, float).reshape(-1, 8),
+        if made[-1]:
+            for stations in (before, after):  # end A, end B
+                chord, e = _end_query(model, stations, offset, index)
+                chords.append(chord)
+                ribs.append(e)
+            panels.append(p)
+    s = len(panels)
+    if not s:
+        return np.zeros((0, 3)), np.zeros((0, 8), int), np.array(made, bool), _no_ties()
+    rib_elements = np.repeat(np.array(ribs, int), 3)
+    w_end, end, _ = inverse_map(
+        model.nodes[model.quads[rib_elements]], np.concatenate(chords).reshape(-1, 3)
     )
-    return (
-        np.array(nodes, float).reshape(-1, 3),
-        np.array(quads, int).reshape(-1, 8),
-        np.array(made, bool),
-        ties,
+    w_end, end = w_end.reshape(s, 2, 3, 8), end.reshape(s, 2, 3, 3)
+    m_end = model.quads[rib_elements].reshape(s, 2, 3, 8)
+    # the top and bottom edges' middles on the sheets the plate is welded to
+    sheets = [names.index("TOP"), names.index("BOT")]
+    candidates = [np.flatnonzero((own == p) & (sheet_group == g)) for p in panels for g in sheets]
+    middles = 0.5 * (end[:, 0, [0, 2]] + end[:, 1, [0, 2]])  # (s, 2, 3): top, bottom
+    w_mid, mid, e_mid = _nearest_of(model, candidates, middles.reshape(-1, 3))
+    w_mid, mid = w_mid.reshape(s, 2, 8), mid.reshape(s, 2, 3)
+    m_mid = model.quads[e_mid].reshape(s, 2, 8)
+    # corners A top, B top, B bottom, A bottom; mid-sides top, B mid, bottom, A mid
+    ends = ((0, 0), (1, 0), (1, 2), (0, 2))
+    nodes = np.stack(
+        [end[:, a, r] for a, r in ends] + [mid[:, 0], end[:, 1, 1], mid[:, 1], end[:, 0, 1]],
+        axis=1,
     )
+    masters = np.stack(
+        [m_end[:, a, r] for a, r in ends]
+        + [m_mid[:, 0], m_end[:, 1, 1], m_mid[:, 1], m_end[:, 0, 1]],
+        axis=1,
+    )
+    weights = np.stack(
+        [w_end[:, a, r] for a, r in ends]
+        + [w_mid[:, 0], w_end[:, 1, 1], w_mid[:, 1], w_end[:, 0, 1]],
+        axis=1,
+    )
+    first = len(model.nodes)
+    quads = first + np.arange(8 * s).reshape(s, 8)
+    ties = Ties(quads.ravel(), masters.reshape(-1, 8), weights.reshape(-1, 8))
+    return nodes.reshape(-1, 3), quads, np.array(made, bool), ties
+
+
+def _no_ties() -> Ties:
+    return Ties(np.zeros(0, int), np.zeros((0, 8), int), np.zeros((0, 8)))
 
 
 def with_stiffeners(model, developed, parts, settings) -> tuple:
