@@ -16,6 +16,7 @@ Kernel behaviour relied on here is pinned in ``tests/test_kernel_quirks.py``:
 from __future__ import annotations
 
 from collections.abc import Iterable
+from dataclasses import replace
 
 import numpy as np
 from OCP.Approx import Approx_ParametrizationType
@@ -34,9 +35,16 @@ from OCP.BRepFill import BRepFill
 from OCP.BRepGProp import BRepGProp
 from OCP.BRepLib import BRepLib
 from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
+from OCP.collections import (
+    Array1_double,
+    Array1_gp_Pnt,
+    Array1_int,
+    HArray1_double,
+    HArray1_gp_Pnt,
+    HArray1_gp_Pnt2d,
+)
 from OCP.collections import Array2_gp_Pnt as TColgp_Array2OfPnt
-from OCP.collections import HArray1_double, HArray1_gp_Pnt, HArray1_gp_Pnt2d
-from OCP.Geom import Geom_BSplineSurface, Geom_Circle, Geom_Plane, Geom_Surface
+from OCP.Geom import Geom_BSplineCurve, Geom_BSplineSurface, Geom_Circle, Geom_Plane, Geom_Surface
 from OCP.Geom2dAPI import Geom2dAPI_Interpolate
 from OCP.GeomAPI import (
     GeomAPI_Interpolate,
@@ -52,6 +60,7 @@ from OCP.TopLoc import TopLoc_Location
 from OCP.TopoDS import TopoDS, TopoDS_Shape
 
 from ..errors import KernelError
+from ..geom.bspline_fit import DEGREE, CubicFit, fit_cubic
 from ..surface.brep import brep_to_shape, shape_to_brep
 
 #: tolerance of faces made from fitted surfaces, mm (OCCT's default Precision::Confusion is 1e-7)
@@ -344,9 +353,7 @@ def prism(
     frame = np.asarray(frame, dtype=float)
     wire = BRepBuilderAPI_MakeWire()
     for index, chain in enumerate(chains):
-        chain = np.asarray(chain, dtype=float)
-        world = (np.c_[chain, np.zeros(len(chain)), np.ones(len(chain))] @ frame.T)[:, :3]
-        wire.Add(_edge(world, f"{name} outline chain {index}"))
+        wire.Add(_edge(np.asarray(chain, dtype=float), frame, f"{name} outline chain {index}"))
         if not wire.IsDone():
             raise KernelError(
                 f"outline of {name} is not a connected wire (chain {index}, error {wire.Error()})"
@@ -373,12 +380,24 @@ def prism(
     return solid
 
 
-def _edge(points: np.ndarray, what: str) -> TopoDS_Shape:
-    """A straight edge (2 points) or an interpolating cubic B-spline edge (more points)."""
-    if len(points) < 2:
+def _edge(chain: np.ndarray, frame: np.ndarray, what: str) -> TopoDS_Shape:
+    """The edge of a chain of points ``(n, 2)`` in the plane of ``frame`` (4, 4): a straight
+    edge (2 points), or a cubic B-spline with the fewest poles that keeps within
+    :data:`~fabpanel.geom.bspline_fit.FIT_TOLERANCE` of the points (through every point where
+    no fit has fewer poles than points). Fitted in the plane's own (x, y) and mapped by the
+    frame, so the poles lie in the plane to round-off and the outline makes a planar face."""
+    if len(chain) < 2:
         raise KernelError(f"{what}: fewer than two points")
-    if len(points) == 2:
+
+    def to_world(xy: np.ndarray) -> np.ndarray:
+        return (np.c_[xy, np.zeros(len(xy)), np.ones(len(xy))] @ frame.T)[:, :3]
+
+    fit = fit_cubic(chain) if len(chain) > 2 else None
+    points = to_world(chain)
+    if len(chain) == 2:
         maker = BRepBuilderAPI_MakeEdge(gp_Pnt(*points[0]), gp_Pnt(*points[1]))
+    elif fit is not None:
+        maker = BRepBuilderAPI_MakeEdge(bspline_curve(replace(fit, poles=to_world(fit.poles))))
     else:
         array = HArray1_gp_Pnt(1, len(points))
         for i, p in enumerate(points):
@@ -391,6 +410,19 @@ def _edge(points: np.ndarray, what: str) -> TopoDS_Shape:
     if not maker.IsDone():
         raise KernelError(f"{what}: edge could not be made (error {maker.Error()})")
     return maker.Edge()
+
+
+def bspline_curve(fit: CubicFit) -> Geom_BSplineCurve:
+    """The OCCT curve of a :class:`~fabpanel.geom.bspline_fit.CubicFit` (3D poles)."""
+    poles = Array1_gp_Pnt(1, len(fit.poles))
+    for i, p in enumerate(fit.poles):
+        poles.SetValue(i + 1, gp_Pnt(*map(float, p)))
+    knots = Array1_double(1, len(fit.knots))
+    mults = Array1_int(1, len(fit.knots))
+    for i, (k, m) in enumerate(zip(fit.knots, fit.multiplicities, strict=True)):
+        knots.SetValue(i + 1, float(k))
+        mults.SetValue(i + 1, int(m))
+    return Geom_BSplineCurve(poles, knots, mults, DEGREE)
 
 
 def _single_solid(shape: TopoDS_Shape, what: str) -> TopoDS_Shape:

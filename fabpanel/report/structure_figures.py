@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..structure.analysis import element_counts
+
 #: S8R node order around the element outline (corner, mid-side, corner...)
 _OUTLINE = [0, 4, 1, 5, 2, 6, 3, 7]
 
@@ -186,7 +188,7 @@ def structure_blocks(result) -> list:
         (
             "model",
             (
-                f"{mesh['elements']} S8R, {mesh['nodes']} nodes, {mesh['elements_per_side']} per "
+                f"{element_counts(mesh)}, {mesh['nodes']} nodes, {mesh['elements_per_side']} per "
                 f"panel side, {summary['supports']['nodes']} "
                 f"{summary['supports'].get('fixity', 'pinned')} anchor nodes in "
                 f"{len(summary['supports'].get('reactions', []))} supports "

@@ -8,7 +8,7 @@ patches (:func:`patch_model`), which is how the solver is validated against the 
 benchmarks in ``tests/test_structure.py``.
 """
 
-from .analysis import Structure, analyse, choose_divisions, shell_of
+from .analysis import Structure, analyse, choose_divisions, element_counts, shell_of
 from .cases import load_cases
 from .ccx import CcxMissing, LoadCase, find_ccx, read_dat, read_frd, run_ccx, write_deck
 from .loads import area_forces, edge_forces, gravity_forces, wind_exposed
@@ -22,7 +22,7 @@ def describe(structure: Structure) -> str:
         return f"not analysed: {s['reason']}"
     gnia = s["buckling"].get("gnia")
     return (
-        f"{s['mesh']['elements']} S8R, utilisation {s['stress']['utilisation']:.2f}, "
+        f"{element_counts(s['mesh'])}, utilisation {s['stress']['utilisation']:.2f}, "
         f"deflection {s['deflection']['ratio']}, buckling factor "
         f"{s['buckling']['first']:.2f} (>= {s['buckling']['required']:.3g})"
         + (f", GNIA {gnia['factor']:.2f} (>= {gnia['required']:g})" if gnia else "")

@@ -596,13 +596,18 @@ def _equations(log_path: Path) -> int:
     return 0
 
 
+def element_counts(mesh: dict) -> str:
+    """The summary's element counts by type, for a line of text: ``4800 S8R + 400 S8``."""
+    counts = [(mesh.get(kind, 0), kind) for kind in ("S8R", "S8", "S6")]
+    text = " + ".join(f"{n} {kind}" for n, kind in counts if n)
+    return text or f"{mesh['elements']} S8R"
+
+
 def _stiffeners_in(shell: ShellModel, lumped_kg: float) -> str:
     """How the corner stiffeners are in the model, for the summary."""
     names = [g.name for g in shell.groups]
     plates = int((shell.group == names.index("STF")).sum()) if "STF" in names else 0
-    text = (
-        f"{plates} S8R plates tied to their ribs and sheets (hinged weld lines)" if plates else ""
-    )
+    text = f"{plates} S8 plates tied to their ribs and sheets (hinged weld lines)" if plates else ""
     if lumped_kg > 0:
         text += ("; " if text else "") + f"{lumped_kg:g} kg lumped, stiffness not modelled"
     return text or "none in the model"
