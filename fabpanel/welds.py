@@ -9,6 +9,11 @@ import math
 #: EN 1993-1-8 §4.5.2(2): a load-bearing fillet weld's throat is at least 3 mm; the default
 #: throat is this or the largest equal-leg fillet the sheet's edge holds, whichever is smaller
 MAX_DEFAULT_THROAT = 3.0
+#: fillet throat of the plate-to-plate welds (rib to rib at the corners, stiffeners all round),
+#: mm: the smallest load-bearing fillet EN 1993-1-8 §4.5.2(2) allows. The structural check
+#: designs the sheet-to-rib welds and the stiffeners' (at most this throat); the rib-to-rib
+#: corner welds carry the corners' fit-up, and the engineer confirms them
+PLATE_THROAT = 3.0
 #: fit-up allowance added to the weld leg for the default set-back, mm
 SETBACK_FIT_UP = 1.0
 #: a sheet set back from the rib's contact face keeps at least this much of the rib under it, mm

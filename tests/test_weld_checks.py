@@ -7,8 +7,15 @@ import math
 import numpy as np
 import pytest
 
+from fabpanel.job import Job
 from fabpanel.structure.mesh import Material, ShellGroup, ShellModel
-from fabpanel.structure.weld_checks import FilletWeld, beta_w, junction_edges, weld_checks
+from fabpanel.structure.weld_checks import (
+    FilletWeld,
+    beta_w,
+    junction_edges,
+    stiffener_edges,
+    weld_checks,
+)
 
 
 def test_the_fillet_weld_resistance_is_en_1993_1_8_4_5_3_3():
@@ -91,3 +98,59 @@ def test_the_weld_force_is_the_sheet_edge_traction_plus_its_moment_over_the_rib(
     )
     assert not summary["ok"] and issues[0].code == "weld-overloaded"
     assert issues[0].severity == "error" and "P001" in issues[0].message
+
+
+def test_a_stiffener_plate_is_welded_all_round_on_both_faces():
+    # the sheet on its rib, and a 100 x 150 mm stiffener plate (8 mm) in the plane y = 50
+    base = _sheet_on_a_rib()
+    corners = np.array([(0, 50, 0), (100, 50, 0), (100, 50, -150), (0, 50, -150)], float)
+    mids = (corners + np.roll(corners, -1, axis=0)) / 2
+    first = len(base.nodes)
+    shell = base.replace(
+        nodes=np.vstack([base.nodes, corners, mids]),
+        quads=np.vstack([base.quads, first + np.arange(8)]),
+        group=np.array([0, 1, 2]),
+        groups=(*base.groups, ShellGroup("STF", 8.0, element="S8")),
+        panel=np.array([[0, -1], [0, -1], [0, -1]]),
+        side=np.array([-1, 1, -1]),
+    )
+    element, side = stiffener_edges(shell)
+    assert element.tolist() == [2] * 4 and side.tolist() == [0, 1, 2, 3]
+    # the stiffener welds' joint: two fillets of at most 3 mm (the job's throat is 4 mm)
+    job = Job.from_dict(
+        {
+            "sandwich": {
+                "sheet_thickness": "6 mm",
+                "rib_thickness": "10 mm",
+                "welds": {"throat": "4 mm"},
+            }
+        }
+    )
+    weld = FilletWeld.stiffener_of(job)
+    assert weld.throat == 3.0 and weld.fillets == 2
+    assert weld.resistance == pytest.approx(2 * FilletWeld(3.0, 8.0, weld.fu, weld.fy).resistance)
+    # a uniform membrane stress of 120 MPa in the plate's x: 960 N/mm across its ends (x = 0
+    # and 100), nothing along its top and bottom
+    s_bot = np.zeros((1, 3, 8, 6))
+    s_top = np.zeros((1, 3, 8, 6))
+    s_bot[0, 2, :, 0] = s_top[0, 2, :, 0] = 120.0
+    summary, issues = weld_checks(
+        shell, s_bot, s_top, np.array([[1.0]]), ["ULS1"], FilletWeld.of(job), ("P001",), weld
+    )
+    stiffeners = summary["stiffeners"]
+    assert stiffeners["edges"] == 4 and stiffeners["fillets"] == 2
+    assert stiffeners["governing"]["force_N_per_mm"] == pytest.approx(960.0, abs=0.05)
+    assert stiffeners["utilisation"] == pytest.approx(960.0 / weld.resistance, abs=1e-4)
+    assert summary["ok"] == stiffeners["ok"] and not issues  # 960 < 2 x 623.5
+    summary, issues = weld_checks(
+        shell,
+        2 * s_bot,
+        2 * s_top,
+        np.array([[1.0]]),
+        ["ULS1"],
+        FilletWeld.of(job),
+        ("P001",),
+        weld,
+    )
+    assert not summary["ok"] and [i.code for i in issues] == ["stiffener-weld-overloaded"]
+    assert "corner stiffener" in issues[0].message and "stiffener_thickness" in issues[0].message

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..welds import PLATE_THROAT
 from .bolts import NUT_CLASS, WASHER_CLASS, bolt_set, joint_bolts
 from .source import DocSource, PartDoc
 
@@ -20,11 +21,6 @@ from .source import DocSource, PartDoc
 TEMPLATE_CHORD = 1000.0
 #: half the largest bent angle for which a chord and sagitta are given (a quarter turn)
 MAX_HALF_ANGLE = math.pi / 4.0
-#: fillet throat scheduled for plate-to-plate welds between ribs and stiffeners, mm: the
-#: smallest load-bearing fillet EN 1993-1-8 §4.5.2(2) allows. The structural check designs the
-#: sheet-to-rib welds only; these carry the stiffeners' and corners' fit-up, and the engineer
-#: confirms them
-PLATE_THROAT = 3.0
 
 
 @dataclass(frozen=True)

@@ -165,7 +165,22 @@ def _welds_row(welds: dict, ok) -> str:
         f"{g['force_N_per_mm']} N/mm (along {g['along_N_per_mm']}, across "
         f"{g['across_N_per_mm']}, out of plane {g['out_of_plane_N_per_mm']} N/mm, edge moment "
         f"{g['moment_Nmm_per_mm']} N mm/mm) at {g['panel']} ({g['combination']}); utilisation "
-        f"{welds['utilisation']}: {ok(welds['ok'])}"
+        f"{welds['utilisation']}"
+        + _stiffener_welds(welds.get("stiffeners"))
+        + f": {ok(welds['ok'])}"
+    )
+
+
+def _stiffener_welds(stiffeners: dict | None) -> str:
+    """The corner stiffeners' welds, appended to the welds' line."""
+    if not stiffeners or "governing" not in stiffeners:
+        return ""
+    g = stiffeners["governing"]
+    return (
+        f"; corner stiffeners all round: {stiffeners['edges']} plate sides, 2 fillets a = "
+        f"{stiffeners['throat_mm']:.2f} mm, F_w,Rd {stiffeners['resistance_N_per_mm']} N/mm, "
+        f"largest {g['force_N_per_mm']} N/mm at {g['panel']} ({g['combination']}), "
+        f"utilisation {stiffeners['utilisation']}"
     )
 
 
@@ -226,7 +241,7 @@ def structure_blocks(result) -> list:
         ),
         ("stiffeners", str(mesh["stiffeners"])),
         ("joint bolts", _bolts_row(summary.get("bolts", {}), ok)),
-        ("sheet-to-rib welds", _welds_row(summary.get("welds", {}), ok)),
+        ("welds", _welds_row(summary.get("welds", {}), ok)),
     ]
     if b.get("note"):
         rows.append(("buckling note", b["note"]))

@@ -430,7 +430,14 @@ def _analyse(
     if keep and joint is not None:
         write_bolts_csv(folder / "bolts.csv", bolts_summary)
     welds_summary, weld_issues = weld_checks(
-        shell, s_bot, s_top, f_uls, [c.name for c in uls], FilletWeld.of(job), panel_ids
+        shell,
+        s_bot,
+        s_top,
+        f_uls,
+        [c.name for c in uls],
+        FilletWeld.of(job),
+        panel_ids,
+        FilletWeld.stiffener_of(job),
     )
     issues += weld_issues
 

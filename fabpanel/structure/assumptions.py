@@ -82,9 +82,11 @@ def assumptions(job, reference_height_m: float | None, sprung: int) -> list[str]
             "extrapolated from the elements' integration points)"
         ),
         (
-            "corner stiffeners: S8R plates between the sheets' mid-surfaces, their ends tied to "
+            "corner stiffeners: S8 plates between the sheets' mid-surfaces, their ends tied to "
             "the ribs' translations at stiffener_offset from the corner and their top and bottom "
-            "edges to the sheets' (the weld lines as hinges)"
+            "edges to the sheets' (the weld lines as hinges); their welds all round (a fillet "
+            "on both faces, throat up to 3 mm) checked as the sheet edges' from the plates' "
+            "edge stresses (one element a stiffener: a coarse reading)"
             if st.stiffeners == "plates"
             else "corner stiffeners are mass only, lumped on the panel corner lines (no "
             'stiffness: [structure] stiffeners = "mass")'

@@ -1,4 +1,5 @@
-"""The sheet-to-rib fillet welds checked under every ULS combination (EN 1993-1-8 §4.5.3.3).
+"""The sheet-to-rib fillet welds, and those all round the corner stiffener plates, checked under
+every ULS combination (EN 1993-1-8 §4.5.3.3).
 
 Every sheet edge of the shell model stands on a rib (the sandwich's junction lines) and is
 joined to it by one fillet weld of throat ``a`` (``[sandwich.welds] throat``), so everything the
@@ -17,6 +18,11 @@ bound of their vector sum), against the simplified method's ``F_w,Rd = a f_u / (
 γ_M2)``, with ``β_w`` by the steel's grade (EN 1993-1-8 Table 4.1) and ``γ_M2 = 1.25``. The
 directional method (§4.5.3.2) would allow more where the force runs along the weld; the
 simplified one needs no weld geometry beyond the throat, and is on the safe side.
+
+A corner stiffener plate (:mod:`.stiffeners`, one S8 element) is welded all round, on both
+faces (W3 of the weld schedule, throat up to 3 mm): its four sides are read the same way, the
+traction from the plate's own edge stresses, against twice a fillet's resistance. Its welds
+are hinges in the model (its ties hold translations only), so the edge moment there is small.
 """
 
 from __future__ import annotations
@@ -53,6 +59,7 @@ class FilletWeld:
     t_rib: float
     fu: float
     fy: float
+    fillets: int = 1
 
     @classmethod
     def of(cls, job) -> FilletWeld:
@@ -66,10 +73,29 @@ class FilletWeld:
             fy=float(job.material.fy),
         )
 
+    @classmethod
+    def stiffener_of(cls, job) -> FilletWeld:
+        """The corner stiffeners' weld (W3 of the weld schedule): a fillet on both faces of
+        the plate, of the job's throat up to :data:`~fabpanel.welds.PLATE_THROAT`; an edge
+        moment is a couple across the plate's thickness."""
+        from ..buildup import Buildup
+        from ..welds import PLATE_THROAT
+
+        bu = Buildup.of(job)
+        return cls(
+            throat=min(bu.welds.throat, PLATE_THROAT),
+            t_rib=bu.t_stf,
+            fu=float(job.material.fu),
+            fy=float(job.material.fy),
+            fillets=2,
+        )
+
     @property
     def resistance(self) -> float:
-        """``F_w,Rd`` per unit length, N/mm: ``a f_u / (√3 β_w γ_M2)`` (§4.5.3.3)."""
-        return self.throat * self.fu / (math.sqrt(3.0) * beta_w(self.fy) * GAMMA_M2)
+        """``F_w,Rd`` per unit length of the joint, N/mm: ``a f_u / (√3 β_w γ_M2)``
+        (§4.5.3.3) for each of its fillets."""
+        one = self.throat * self.fu / (math.sqrt(3.0) * beta_w(self.fy) * GAMMA_M2)
+        return self.fillets * one
 
 
 def junction_edges(shell: ShellModel) -> tuple[np.ndarray, np.ndarray]:
@@ -140,15 +166,70 @@ def weld_checks(
     names: list[str],
     weld: FilletWeld,
     panel_ids: tuple[str, ...],
+    stiffener_weld: FilletWeld | None = None,
 ) -> tuple[dict, list[Issue]]:
     """Every junction's fillet weld under every ULS combination (``factors`` (K, C), named
     ``names``); the summary (resistance, the worst weld force and its parts, where and under
-    which combination) and an error where a weld is overloaded."""
+    which combination) and an error where a weld is overloaded. With ``stiffener_weld``, the
+    welds all round the corner stiffener plates too (:func:`stiffener_edges`), in the
+    summary's ``stiffeners``."""
     element, side = junction_edges(shell)
+    summary, issues = _edge_check(
+        shell, (s_bot, s_top), factors, names, weld, panel_ids, element, side
+    )
+    summary["method"] = "EN 1993-1-8 4.5.3.3 (simplified), one fillet weld per sheet edge"
+    if stiffener_weld is not None:
+        element, side = stiffener_edges(shell)
+        if len(element):
+            stiffeners, more = _edge_check(
+                shell, (s_bot, s_top), factors, names, stiffener_weld, panel_ids, element, side
+            )
+            stiffeners["method"] = (
+                "EN 1993-1-8 4.5.3.3 (simplified), a fillet weld on both faces all round"
+            )
+            summary["stiffeners"] = stiffeners
+            summary["ok"] = bool(summary["ok"] and stiffeners["ok"])
+            issues += [
+                Issue(
+                    "stiffener-weld-overloaded",
+                    i.message.replace("sheet edge(s)", "corner stiffener edge(s)").replace(
+                        "raise [sandwich.welds] throat or the sheet thickness",
+                        "raise [sandwich.welds] throat (up to 3 mm on a stiffener) or "
+                        "[sandwich] stiffener_thickness",
+                    ),
+                    severity="error",
+                )
+                for i in more
+            ]
+    return summary, issues
+
+
+def stiffener_edges(shell: ShellModel) -> tuple[np.ndarray, np.ndarray]:
+    """Every side of the corner stiffener plates (group ``STF``): ``(element, side)`` (k,)
+    each. Each side is welded: its ends to the two ribs, its top and bottom to the sheets."""
+    names = [g.name for g in shell.groups]
+    if "STF" not in names:
+        return np.zeros(0, int), np.zeros(0, int)
+    plates = np.flatnonzero(shell.group[: len(shell.quads)] == names.index("STF"))
+    return np.repeat(plates, 4), np.tile(np.arange(4), len(plates))
+
+
+def _edge_check(
+    shell: ShellModel,
+    stresses: tuple[np.ndarray, np.ndarray],
+    factors: np.ndarray,
+    names: list[str],
+    weld: FilletWeld,
+    panel_ids: tuple[str, ...],
+    element: np.ndarray,
+    side: np.ndarray,
+) -> tuple[dict, list[Issue]]:
+    """The welds along the element sides ``(element, side)`` (see the module docstring; the
+    edge moment's lever ``weld.t_rib``)."""
     resistance = weld.resistance
     summary: dict = {
-        "method": "EN 1993-1-8 4.5.3.3 (simplified), one fillet weld per sheet edge",
         "throat_mm": round(weld.throat, 3),
+        "fillets": weld.fillets,
         "beta_w": beta_w(weld.fy),
         "gamma_M2": GAMMA_M2,
         "resistance_N_per_mm": round(resistance, 1),
@@ -157,7 +238,7 @@ def weld_checks(
     if not len(element) or not len(factors):
         return {**summary, "ok": True, "utilisation": 0.0}, []
     frames = edge_frames(shell, element, side)
-    membrane, bending = edge_loads(shell, s_bot, s_top, element, side, frames)
+    membrane, bending = edge_loads(shell, *stresses, element, side, frames)
     combined_m = np.einsum("kc,cnai->knai", factors, membrane)  # (K, k, 3, 3)
     combined_b = np.einsum("kc,cnai->knai", factors, bending)
     moment = np.linalg.norm(combined_b, axis=-1)
