@@ -18,6 +18,7 @@ the points).
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,32 +27,38 @@ from scipy.interpolate import BSpline, make_interp_spline
 #: the largest distance a fitted curve may leave one of its points, mm (the plasma holds
 #: +-0.5 mm; the model's edges and the cut file's points then agree far below that)
 FIT_TOLERANCE = 0.001
+#: the same for an access opening's outline, mm: its cubic through every point left up to
+#: 0.017 mm between the points of a slot's 5 mm rounds (tests/test_openings.py), and a 5 mm
+#: round then needs two spans a quarter, not four
+LOOP_TOLERANCE = 0.005
 #: bisection rounds: up to 2^8 spans from one
 MAX_ROUNDS = 8
 #: a fit needing more poles than this share of the points is not worth its risk: the chain
 #: has a kink (a rib edge where two sections cross), and the cubic through every point is kept
 MAX_POLE_SHARE = 0.5
+#: a closed outline's point turning less than this (radians) lies on a straight run: 1 degree,
+#: against 22.5 degrees at the chords of a slot's 5 mm round and about 0.1 at a run's 8 mm
+#: steps on a sheet of 4 m radius
+JOINT_STRAIGHT = np.radians(1.0)
 DEGREE = 3
 
 
 @dataclass(frozen=True)
 class CubicFit:
-    """A clamped cubic B-spline: ``knots`` (m + 1,) distinct, from 0 to the chain's length;
-    ``poles`` (m + 3, d), the first and the last the chain's end points."""
+    """A clamped cubic B-spline: ``knots`` (m + 1,) distinct, from 0 to the chain's length,
+    ``multiplicities`` (m + 1,) as OCCT takes them (the ends degree + 1; 2 at a joint where the
+    curvature may jump); ``poles`` (p, d), the first and the last on the chain's end points
+    (one per fitted set in ``more``, on the same knots)."""
 
     knots: np.ndarray
+    multiplicities: np.ndarray
     poles: np.ndarray
+    more: tuple[np.ndarray, ...] = ()
 
-    @property
-    def multiplicities(self) -> np.ndarray:
-        """The knots' multiplicities as OCCT takes them (the ends: degree + 1)."""
-        mults = np.ones(len(self.knots), int)
-        mults[[0, -1]] = DEGREE + 1
-        return mults
-
-    def evaluate(self, params: np.ndarray) -> np.ndarray:
-        """The curve at ``params`` (n,): (n, d)."""
-        return design_matrix(params, self.knots) @ self.poles
+    def evaluate(self, params: np.ndarray, which: int = 0) -> np.ndarray:
+        """Curve ``which`` (0: ``poles``, 1...: ``more``) at ``params`` (n,): (n, d)."""
+        poles = self.poles if which == 0 else self.more[which - 1]
+        return design_matrix(params, self.knots, self.multiplicities) @ poles
 
 
 def chord_parameters(points: np.ndarray) -> np.ndarray:
@@ -59,11 +66,19 @@ def chord_parameters(points: np.ndarray) -> np.ndarray:
     return np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))]
 
 
-def design_matrix(params: np.ndarray, knots: np.ndarray) -> np.ndarray:
-    """(n, m + 3) float: the clamped cubic B-spline basis on ``knots`` at ``params``."""
-    t = np.r_[[knots[0]] * DEGREE, knots, [knots[-1]] * DEGREE]
+def design_matrix(params: np.ndarray, knots: np.ndarray, mults: np.ndarray) -> np.ndarray:
+    """(n, p) float: the clamped cubic B-spline basis on ``knots`` of multiplicities ``mults``
+    at ``params``."""
+    t = np.repeat(knots, mults)
     x = np.clip(np.asarray(params, float), knots[0], knots[-1])
     return BSpline.design_matrix(x, t, DEGREE).toarray()
+
+
+def _clamped(knots: np.ndarray, inner: int = 1) -> np.ndarray:
+    """Multiplicities of a clamped knot vector: the ends degree + 1, the others ``inner``."""
+    mults = np.full(len(knots), inner)
+    mults[[0, -1]] = DEGREE + 1
+    return mults
 
 
 def fit_cubic(points: np.ndarray, tolerance: float = FIT_TOLERANCE) -> CubicFit | None:
@@ -76,21 +91,119 @@ def fit_cubic(points: np.ndarray, tolerance: float = FIT_TOLERANCE) -> CubicFit 
     if len(points) < 5 or params[-1] <= 0:
         return None
     knots = np.array([0.0, params[-1]])
+    found = _refined(points, params, knots, _clamped(knots), np.ones_like(points), tolerance)
+    if found is None:
+        return None
+    knots, mults, poles = found
+    fit = CubicFit(knots, mults, poles)
+    return fit if _follows_between(fit, params, points, tolerance) else None
+
+
+def fit_loop(
+    sets: list[np.ndarray],
+    steps: np.ndarray,
+    scales: list[np.ndarray],
+    tolerance: float = LOOP_TOLERANCE,
+) -> CubicFit | None:
+    """One knot vector for several closed loops of points, point ``i`` of each on one line
+    (each (n, d), not closed): the first loop's points in mm, the others scaled to mm by
+    ``scales`` (each (n, d)); ``steps`` (n,) the parameter step from each point to the next
+    (the last back to the first). The curves start at a joint of the first loop's runs and
+    rounds (:func:`joints`); there and at its other joints the knots are double, so the
+    curvature may jump as the outline's does; the spans between are bisected while a point is
+    missed. The curves start and end on that point exactly (closed, tangent-continuous there
+    to the tolerance). None where the first loop has no joint or no fit with at most
+    :data:`MAX_POLE_SHARE` of the points holds the tolerance."""
+    found = joints(sets[0])
+    if not len(found):
+        return None
+    start = int(found[0])
+
+    def closed(a: np.ndarray) -> np.ndarray:
+        a = np.roll(a, -start, axis=0)
+        return np.vstack([a, a[:1]])
+
+    params = np.r_[0.0, np.cumsum(np.roll(steps, -start))]
+    values = np.concatenate([closed(a) for a in sets], axis=1)
+    scale = np.concatenate([closed(a) for a in scales], axis=1)
+    widths = np.cumsum([0] + [a.shape[1] for a in sets])
+    inner = np.sort((found - start) % len(steps))[1:]
+    knots = np.r_[0.0, params[inner], params[-1]]
+    fitted = _refined(values, params, knots, _clamped(knots, 2), scale, tolerance, widths)
+    if fitted is None:
+        return None
+    knots, mults, poles = fitted
+    split = [poles[:, a:b] for a, b in itertools.pairwise(widths)]
+    fit = CubicFit(knots, mults, split[0], tuple(split[1:]))
+    return fit if _keeps_to_chords(fit, params, closed(sets[0]), tolerance) else None
+
+
+def joints(loop: np.ndarray, straight: float = JOINT_STRAIGHT) -> np.ndarray:
+    """Indices of the points of a closed ``loop`` (n, d) where a straight run meets a round:
+    the loop turns there, and not at one of its two neighbours (a run's points turn less than
+    ``straight`` radians; a round's by its chords' angle)."""
+    ahead = np.roll(loop, -1, axis=0) - loop
+    behind = loop - np.roll(loop, 1, axis=0)
+    cos = np.einsum("ij,ij->i", ahead, behind) / np.maximum(
+        np.linalg.norm(ahead, axis=1) * np.linalg.norm(behind, axis=1), 1e-300
+    )
+    turn = np.arccos(np.clip(cos, -1.0, 1.0))
+    quiet = turn < straight
+    return np.flatnonzero(~quiet & (np.roll(quiet, 1) | np.roll(quiet, -1)))
+
+
+def _refined(
+    values: np.ndarray,
+    params: np.ndarray,
+    knots: np.ndarray,
+    mults: np.ndarray,
+    scale: np.ndarray,
+    tolerance: float,
+    widths: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Bisect the spans of ``knots`` that miss a point of ``values`` at ``params`` by more
+    than ``tolerance`` (residuals times ``scale``, a point's miss the largest of its sets'
+    ``widths`` column groups) until none does: ``(knots, mults, poles)``, or None."""
+    widths = np.array([0, values.shape[1]]) if widths is None else widths
     for _ in range(MAX_ROUNDS + 1):
-        basis = design_matrix(params, knots)
-        if basis.shape[1] > MAX_POLE_SHARE * len(points):
+        basis = design_matrix(params, knots, mults)
+        if basis.shape[1] > MAX_POLE_SHARE * len(values):
             return None
-        poles = _least_squares(basis, points)
+        poles = _least_squares(basis, values)
         if poles is None:
             return None
-        miss = np.linalg.norm(basis @ poles - points, axis=1)
+        residual = (basis @ poles - values) * scale
+        miss = np.max(
+            [np.linalg.norm(residual[:, a:b], axis=1) for a, b in itertools.pairwise(widths)],
+            axis=0,
+        )
         if miss.max() <= tolerance:
-            fit = CubicFit(knots, poles)
-            return fit if _follows_between(fit, params, points, tolerance) else None
+            return knots, mults, poles
         span = np.clip(np.searchsorted(knots, params, side="right") - 1, 0, len(knots) - 2)
         bad = np.unique(span[miss > tolerance])
-        knots = np.sort(np.r_[knots, 0.5 * (knots[bad] + knots[bad + 1])])
+        middles = 0.5 * (knots[bad] + knots[bad + 1])
+        order = np.argsort(np.r_[knots, middles], kind="stable")
+        knots = np.r_[knots, middles][order]
+        mults = np.r_[mults, np.ones(len(middles), int)][order]
     return None
+
+
+def _keeps_to_chords(fit: CubicFit, params: np.ndarray, points: np.ndarray, tolerance) -> bool:
+    """Whether ``fit`` stays near each chord of ``points`` halfway along it: within the
+    tolerance and the sagitta a curve turning as the points do there would have (a
+    least-squares cubic can swing between points it meets)."""
+    middle = 0.5 * (params[1:] + params[:-1])
+    chord = np.diff(points, axis=0)
+    length = np.linalg.norm(chord, axis=1)
+    ahead = np.r_[chord[1:], chord[:1]]
+    cos = np.einsum("ij,ij->i", chord, ahead) / np.maximum(
+        length * np.linalg.norm(ahead, axis=1), 1e-300
+    )
+    turn = np.arccos(np.clip(cos, -1.0, 1.0))
+    turn = np.maximum(turn, np.roll(turn, 1))  # at either end of the chord
+    sagitta = length * turn / 4.0  # twice chord * angle / 8
+    off = np.linalg.norm(fit.evaluate(middle) - 0.5 * (points[1:] + points[:-1]), axis=1)
+    return bool((off <= sagitta + tolerance).all())
 
 
 def _follows_between(

@@ -38,6 +38,7 @@ from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
 from OCP.collections import (
     Array1_double,
     Array1_gp_Pnt,
+    Array1_gp_Pnt2d,
     Array1_int,
     HArray1_double,
     HArray1_gp_Pnt,
@@ -45,6 +46,7 @@ from OCP.collections import (
 )
 from OCP.collections import Array2_gp_Pnt as TColgp_Array2OfPnt
 from OCP.Geom import Geom_BSplineCurve, Geom_BSplineSurface, Geom_Circle, Geom_Plane, Geom_Surface
+from OCP.Geom2d import Geom2d_BSplineCurve
 from OCP.Geom2dAPI import Geom2dAPI_Interpolate
 from OCP.GeomAPI import (
     GeomAPI_Interpolate,
@@ -60,7 +62,7 @@ from OCP.TopLoc import TopLoc_Location
 from OCP.TopoDS import TopoDS, TopoDS_Shape
 
 from ..errors import KernelError
-from ..geom.bspline_fit import DEGREE, CubicFit, fit_cubic
+from ..geom.bspline_fit import DEGREE, CubicFit, fit_cubic, fit_loop
 from ..surface.brep import brep_to_shape, shape_to_brep
 
 #: tolerance of faces made from fitted surfaces, mm (OCCT's default Precision::Confusion is 1e-7)
@@ -285,20 +287,46 @@ def _hole_edges(
 ) -> list[TopoDS_Shape]:
     """The closed edges of one hole on the sheet's two ``surfaces``, through the parameter
     pairs ``loops`` (each (n, 2), the same n, point i of both on one line along the hole
-    axis): per edge a periodic cubic through the points in the parameter plane (its p-curve)
-    and one through the same points in space (its 3D curve), all four with the same
+    axis). Each edge's 3D curve and p-curve, on both faces, share one knot vector and the same
     parameters (the mean chord length of the two loops), so the ruled wall between the edges
-    has the poles of one curve twice and its rulings join points i. OCCT's own 3D curve of a
-    p-curve (``BuildCurves3d``) came out at degree 14 with 400-2000 poles, and the ruled
-    wall between two of them with up to 8600: two thirds of a STEP file."""
+    has the poles of one curve twice and its rulings join points i: cubics fitted within
+    :data:`~fabpanel.geom.bspline_fit.LOOP_TOLERANCE` with double knots where the outline's
+    straight runs meet its rounds (:func:`~fabpanel.geom.bspline_fit.fit_loop`: a slot's 53
+    points become 26 poles), or, where no such fit holds, periodic cubics through every point.
+    OCCT's own 3D curve of a p-curve (``BuildCurves3d``) came out at degree 14 with 400-2000
+    poles, and the ruled wall between two of them with up to 8600: two thirds of a STEP file."""
     points = [surface_points(s, loop[:, 0], loop[:, 1]) for s, loop in zip(surfaces, loops)]
     chords = [np.linalg.norm(np.roll(p, -1, axis=0) - p, axis=1) for p in points]
     steps = 0.5 * (chords[0] + chords[1])
+    scales = [np.ones_like(points[0]), np.ones_like(points[1])]
+    for surface, loop in zip(surfaces, loops):
+        _, du, dv = surface_derivatives(surface, loop)
+        scales.append(np.c_[np.linalg.norm(du, axis=1), np.linalg.norm(dv, axis=1)])
+    fit = fit_loop([points[0], points[1], *loops], steps, scales)
+    if fit is None:
+        curves = _interpolated_loops(loops, points, steps, name)
+    else:
+        curves = [(bspline_curve(fit, k), bspline_curve(fit, k + 2)) for k in (0, 1)]
+    edges = []
+    for surface, (curve3d, curve2d) in zip(surfaces, curves):
+        maker = BRepBuilderAPI_MakeEdge(curve3d)
+        if not maker.IsDone():
+            raise KernelError(f"hole edge of {name} could not be made (error {maker.Error()})")
+        edge = maker.Edge()
+        BRep_Builder().UpdateEdge(edge, curve2d, surface, TopLoc_Location(), EDGE_TOLERANCE)
+        BRepLib.SameParameter_s(edge, EDGE_TOLERANCE)
+        edges.append(edge)
+    return edges
+
+
+def _interpolated_loops(loops, points, steps: np.ndarray, name: str) -> list[tuple]:
+    """Per face, the periodic cubics through every point of its loop: ``(3D curve, p-curve)``
+    with the parameters of ``steps``."""
     params = HArray1_double(1, len(steps) + 1)
     for i, value in enumerate(np.concatenate([[0.0], np.cumsum(steps)])):
         params.SetValue(i + 1, float(value))
-    edges = []
-    for surface, loop, xyz in zip(surfaces, loops, points):
+    curves = []
+    for loop, xyz in zip(loops, points):
         flat = HArray1_gp_Pnt2d(1, len(loop))
         space = HArray1_gp_Pnt(1, len(loop))
         for i, ((u, v), p) in enumerate(zip(np.asarray(loop, dtype=float), xyz)):
@@ -310,14 +338,8 @@ def _hole_edges(
         curve3d.Perform()
         if not (curve2d.IsDone() and curve3d.IsDone()):
             raise KernelError(f"hole outline of {name} could not be interpolated")
-        maker = BRepBuilderAPI_MakeEdge(curve3d.Curve())
-        if not maker.IsDone():
-            raise KernelError(f"hole edge of {name} could not be made (error {maker.Error()})")
-        edge = maker.Edge()
-        BRep_Builder().UpdateEdge(edge, curve2d.Curve(), surface, TopLoc_Location(), EDGE_TOLERANCE)
-        BRepLib.SameParameter_s(edge, EDGE_TOLERANCE)
-        edges.append(edge)
-    return edges
+        curves.append((curve3d.Curve(), curve2d.Curve()))
+    return curves
 
 
 def _iso_curve(surface: Geom_Surface, side: int):
@@ -412,17 +434,24 @@ def _edge(chain: np.ndarray, frame: np.ndarray, what: str) -> TopoDS_Shape:
     return maker.Edge()
 
 
-def bspline_curve(fit: CubicFit) -> Geom_BSplineCurve:
-    """The OCCT curve of a :class:`~fabpanel.geom.bspline_fit.CubicFit` (3D poles)."""
-    poles = Array1_gp_Pnt(1, len(fit.poles))
-    for i, p in enumerate(fit.poles):
-        poles.SetValue(i + 1, gp_Pnt(*map(float, p)))
+def bspline_curve(fit: CubicFit, which: int = 0) -> Geom_BSplineCurve | Geom2d_BSplineCurve:
+    """The OCCT curve of a :class:`~fabpanel.geom.bspline_fit.CubicFit`'s set ``which``: a 3D
+    curve of 3D poles, a parameter-plane curve of 2D ones."""
+    poles = fit.poles if which == 0 else fit.more[which - 1]
     knots = Array1_double(1, len(fit.knots))
     mults = Array1_int(1, len(fit.knots))
     for i, (k, m) in enumerate(zip(fit.knots, fit.multiplicities, strict=True)):
         knots.SetValue(i + 1, float(k))
         mults.SetValue(i + 1, int(m))
-    return Geom_BSplineCurve(poles, knots, mults, DEGREE)
+    if poles.shape[1] == 2:
+        flat = Array1_gp_Pnt2d(1, len(poles))
+        for i, p in enumerate(poles):
+            flat.SetValue(i + 1, gp_Pnt2d(*map(float, p)))
+        return Geom2d_BSplineCurve(flat, knots, mults, DEGREE)
+    space = Array1_gp_Pnt(1, len(poles))
+    for i, p in enumerate(poles):
+        space.SetValue(i + 1, gp_Pnt(*map(float, p)))
+    return Geom_BSplineCurve(space, knots, mults, DEGREE)
 
 
 def _single_solid(shape: TopoDS_Shape, what: str) -> TopoDS_Shape:
