@@ -58,3 +58,19 @@ def test_a_fitted_plate_outline_makes_a_valid_planar_plate():
     r, a = 1500.0, 500.0
     segment = 2 * a * r - (a * np.sqrt(r**2 - a**2) + r**2 * np.arcsin(a / r))
     assert occ.volume(solid) == pytest.approx(8.0 * (1000.0 * depth - segment), rel=1e-5)
+
+
+def test_a_slot_has_a_joint_where_each_run_meets_a_round_and_a_circle_none():
+    from fabpanel.fasteners import SLOT_CORNER, rounded_rectangle
+    from fabpanel.geom.bspline_fit import joints
+
+    slot = rounded_rectangle(22.0, -20.0, 45.0, SLOT_CORNER)
+    found = joints(slot)
+    assert len(found) == 8
+    # each joint's neighbours: one on its round (turning), one on its run (straight)
+    ahead = np.roll(slot, -1, axis=0) - slot
+    behind = np.roll(ahead, 1, axis=0)
+    straight = np.abs(ahead[:, 0] * behind[:, 1] - ahead[:, 1] * behind[:, 0]) < 1e-9
+    assert all(straight[(i + 1) % len(slot)] or straight[i - 1] for i in found)
+    angle = np.linspace(0.0, 2 * np.pi, 60, endpoint=False)
+    assert not len(joints(np.c_[np.cos(angle), np.sin(angle)] * 20.0))

@@ -3,17 +3,20 @@ approximated with more poles than its tolerance needs").
 
 A plate's curved outline comes as a chain of points: a rib's edge along its sheet, sampled at
 the developed grid's 33-65 stations, a stiffener's edges. A cubic *through* every point keeps
-every point as a pole (a third of a STEP file's poles on the demo). A smooth chain is fitted
-here in the least squares sense on a clamped knot vector that starts with one span and has
-every span bisected that misses a point by more than the tolerance: a rib edge along a 4 m
-radius needs 4-8 poles, not 65. The ends are kept exactly, so the edge meets its neighbours
-at the same vertices.
+every point as a pole (a quarter of the demo's STEP poles). A smooth chain is fitted here in
+the least squares sense on a clamped knot vector that starts with one span and has every span
+bisected that misses a point by more than the tolerance (:func:`fit_cubic`): a rib edge needs
+4-7 poles, not 65. The ends are kept exactly, so the edge meets its neighbours at the same
+vertices.
 
-Access openings keep their interpolating cubics (:func:`fabpanel.model.occ._hole_edges`): their
-outlines are straight runs and 5 mm rounds whose points are already graded to the fewest a
-cubic through them needs, and a least-squares cubic with simple knots cannot follow the jump
-in curvature where a run meets a round (tried: more poles than points, or 6 mm off between
-the points).
+An access opening's outline (:func:`fit_loop`) is straight runs and 5 mm rounds, its points
+graded to crowd where they meet, since a cubic with simple knots overshoots where the curvature
+jumps (a least-squares one with simple knots needed more poles than points, or swung 6 mm off
+between them). So the knots are double at those joints (:func:`joints`: the curve is only
+tangent-continuous there, as the outline is) and the spans between are bisected: a slot's 50
+points become 26 poles. The opening's edges on the sheet's two faces and their parameter-plane
+images share the knots and parameters, so the ruled wall between the edges has the poles of one
+curve twice, and each p-curve follows its 3D curve within twice the tolerance.
 """
 
 from __future__ import annotations
@@ -36,10 +39,14 @@ MAX_ROUNDS = 8
 #: a fit needing more poles than this share of the points is not worth its risk: the chain
 #: has a kink (a rib edge where two sections cross), and the cubic through every point is kept
 MAX_POLE_SHARE = 0.5
-#: a closed outline's point turning less than this (radians) lies on a straight run: 1 degree,
-#: against 22.5 degrees at the chords of a slot's 5 mm round and about 0.1 at a run's 8 mm
-#: steps on a sheet of 4 m radius
-JOINT_STRAIGHT = np.radians(1.0)
+#: an opening's outline has its points graded already (crowded where runs meet rounds): a fit
+#: of its joints and spans may keep up to this share of them (a slot's 50 points: 26 poles);
+#: its swings between the points are checked against the chords
+LOOP_POLE_SHARE = 0.75
+#: a closed outline turns at least this much (radians) where a straight run meets a round:
+#: half a chord's 22.5 degrees on a slot's 5 mm round, where a run's 8 mm steps turn by 0.1-1.4
+#: degrees, the slot's prism cutting a curved sheet at a slant
+JOINT_TURN = np.radians(5.0)
 DEGREE = 3
 
 
@@ -113,7 +120,7 @@ def fit_loop(
     curvature may jump as the outline's does; the spans between are bisected while a point is
     missed. The curves start and end on that point exactly (closed, tangent-continuous there
     to the tolerance). None where the first loop has no joint or no fit with at most
-    :data:`MAX_POLE_SHARE` of the points holds the tolerance."""
+    :data:`LOOP_POLE_SHARE` of the points holds the tolerance."""
     found = joints(sets[0])
     if not len(found):
         return None
@@ -129,7 +136,9 @@ def fit_loop(
     widths = np.cumsum([0] + [a.shape[1] for a in sets])
     inner = np.sort((found - start) % len(steps))[1:]
     knots = np.r_[0.0, params[inner], params[-1]]
-    fitted = _refined(values, params, knots, _clamped(knots, 2), scale, tolerance, widths)
+    fitted = _refined(
+        values, params, knots, _clamped(knots, 2), scale, tolerance, widths, LOOP_POLE_SHARE
+    )
     if fitted is None:
         return None
     knots, mults, poles = fitted
@@ -138,18 +147,19 @@ def fit_loop(
     return fit if _keeps_to_chords(fit, params, closed(sets[0]), tolerance) else None
 
 
-def joints(loop: np.ndarray, straight: float = JOINT_STRAIGHT) -> np.ndarray:
+def joints(loop: np.ndarray) -> np.ndarray:
     """Indices of the points of a closed ``loop`` (n, d) where a straight run meets a round:
-    the loop turns there, and not at one of its two neighbours (a run's points turn less than
-    ``straight`` radians; a round's by its chords' angle)."""
+    the loop turns there by at least :data:`JOINT_TURN`, and at one of its neighbours by less
+    than a quarter as much (a round's chords turn alike, a run's points hardly at all; at the
+    joint itself by half a chord's angle)."""
     ahead = np.roll(loop, -1, axis=0) - loop
     behind = loop - np.roll(loop, 1, axis=0)
     cos = np.einsum("ij,ij->i", ahead, behind) / np.maximum(
         np.linalg.norm(ahead, axis=1) * np.linalg.norm(behind, axis=1), 1e-300
     )
     turn = np.arccos(np.clip(cos, -1.0, 1.0))
-    quiet = turn < straight
-    return np.flatnonzero(~quiet & (np.roll(quiet, 1) | np.roll(quiet, -1)))
+    calmer = np.minimum(np.roll(turn, 1), np.roll(turn, -1))
+    return np.flatnonzero((turn >= JOINT_TURN) & (calmer < 0.25 * turn))
 
 
 def _refined(
@@ -160,6 +170,7 @@ def _refined(
     scale: np.ndarray,
     tolerance: float,
     widths: np.ndarray | None = None,
+    share: float = MAX_POLE_SHARE,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """Bisect the spans of ``knots`` that miss a point of ``values`` at ``params`` by more
     than ``tolerance`` (residuals times ``scale``, a point's miss the largest of its sets'
@@ -167,7 +178,7 @@ def _refined(
     widths = np.array([0, values.shape[1]]) if widths is None else widths
     for _ in range(MAX_ROUNDS + 1):
         basis = design_matrix(params, knots, mults)
-        if basis.shape[1] > MAX_POLE_SHARE * len(values):
+        if basis.shape[1] > share * len(values):
             return None
         poles = _least_squares(basis, values)
         if poles is None:
