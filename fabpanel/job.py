@@ -872,7 +872,7 @@ class StructureSection(_Section):
     #: ``rigid``: the two ribs of a joint are one shell of twice the thickness (the joint a
     #: weld), for comparison
     joints: Literal["bolted", "rigid"] = "bolted"
-    #: ``plates``: each corner stiffener an S8R plate tied to its ribs and sheets
+    #: ``plates``: each corner stiffener an S8 plate tied to its ribs and sheets
     #: (:mod:`fabpanel.structure.stiffeners`); ``mass``: its mass lumped on the panel's corner
     #: line, its stiffness left out (the model before the plates), for comparison
     stiffeners: Literal["plates", "mass"] = "plates"

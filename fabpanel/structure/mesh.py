@@ -27,7 +27,7 @@ What the shell model simplifies, and how the mass is kept right (checked against
 - bolt holes and access openings (``Part.holes``) are taken off the density of their part kind
   (their stiffness loss is ignored: a 13 mm hole every 250 mm in an 8 mm rib);
 - boundary ribs sit on the rib plane, ``t_rib / 2`` outside their true mid-plane;
-- corner stiffeners are S8R plates of their own (:mod:`.stiffeners`): their ends lie
+- corner stiffeners are S8 plates of their own (:mod:`.stiffeners`): their ends lie
   ``stiffener_offset`` along the sides, between the nodes of the structured rib mesh, so each
   node is tied to the rib or sheet element it is welded to by that element's shape functions
   (``*EQUATION``, translations: the weld lines act as hinges); their group's density gives the

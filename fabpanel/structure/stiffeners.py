@@ -1,4 +1,4 @@
-"""Corner stiffeners in the shell model: one S8R plate per built stiffener, tied to its ribs and
+"""Corner stiffeners in the shell model: one S8 plate per built stiffener, tied to its ribs and
 sheets.
 
 A corner stiffener (:func:`fabpanel.model.plates.stiffener`) is a flat plate across a panel's
