@@ -334,6 +334,12 @@ def test_small_holes_are_drilled_not_cut(tmp_path):
 
 def test_stroke_font_covers_label_characters():
     assert set("ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_. ") <= CHARACTERS
+    # a forming instruction of a cone opening up: its "+" etched, not dropped (it was, until
+    # 2026-12-03: "R2134  ROLL" on a hyperbolic paraboloid's sheets)
+    assert set("OUT CONVEX R934+ ROLL") <= CHARACTERS
+    assert (
+        len(text_strokes("R934+", 0.0, 0.0, 20.0)) == len(text_strokes("R934-", 0.0, 0.0, 20.0)) + 1
+    )
     strokes = text_strokes("P012-RIB-3", 0.0, 0.0, 20.0, 90.0)
     points = np.concatenate(strokes)
     # turned by 90 degrees about the centre: the line runs along y, 20 mm high along x

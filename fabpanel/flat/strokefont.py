@@ -2,8 +2,9 @@
 
 Plasma CAM programs etch lines, not filled glyphs, so labels are written as open polylines. Glyphs
 are drawn on a 4 x 6 grid (cap height 6 units, advance 5.5 units); characters: ``A-Z``, ``0-9``,
-``-``, ``_``, ``.`` and space (lower case is upper-cased, anything else becomes a space). For
-steel parts a cap height of 15-30 mm reads well from a few metres after cutting.
+``-``, ``+`` (``R934+``: a forming radius opening up), ``_``, ``.`` and space (lower case is
+upper-cased, anything else becomes a space). For steel parts a cap height of 15-30 mm reads
+well from a few metres after cutting.
 """
 
 from __future__ import annotations
@@ -58,6 +59,7 @@ _GLYPHS: dict[str, str] = {
     "8": "1 3,0 4,0 5,1 6,3 6,4 5,4 4,3 3,1 3,0 2,0 1,1 0,3 0,4 1,4 2,3 3",
     "9": "0 1,1 0,3 0,4 1,4 5,3 6,1 6,0 5,0 4,1 3,4 3",
     "-": "0.5 3,3.5 3",
+    "+": "0.5 3,3.5 3;2 1.5,2 4.5",
     "_": "0 0,4 0",
     ".": "1.6 0,2.4 0,2.4 0.8,1.6 0.8,1.6 0",
     " ": "",
