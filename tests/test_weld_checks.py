@@ -142,6 +142,16 @@ def test_a_stiffener_plate_is_welded_all_round_on_both_faces():
     assert stiffeners["governing"]["force_N_per_mm"] == pytest.approx(960.0, abs=0.05)
     assert stiffeners["utilisation"] == pytest.approx(960.0 / weld.resistance, abs=1e-4)
     assert summary["ok"] == stiffeners["ok"] and not issues  # 960 < 2 x 623.5
+    # the faces 30 MPa either side of the mean: a moment of 30 x 8^2 / 6 = 320 N mm/mm, a
+    # couple on the plate's thickness (the job's 10 mm stiffener) that each fillet takes whole
+    s_bot[0, 2, :, 0], s_top[0, 2, :, 0] = 90.0, 150.0
+    summary, _ = weld_checks(
+        shell, s_bot, s_top, np.array([[1.0]]), ["ULS1"], FilletWeld.of(job), ("P001",), weld
+    )
+    governing = summary["stiffeners"]["governing"]
+    assert governing["moment_Nmm_per_mm"] == pytest.approx(320.0, abs=0.05)
+    assert governing["force_N_per_mm"] == pytest.approx(960.0 + 2 * 320.0 / 10.0, abs=0.05)
+    s_bot[0, 2, :, 0] = s_top[0, 2, :, 0] = 120.0
     summary, issues = weld_checks(
         shell,
         2 * s_bot,

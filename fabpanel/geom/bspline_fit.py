@@ -95,7 +95,7 @@ def fit_cubic(points: np.ndarray, tolerance: float = FIT_TOLERANCE) -> CubicFit 
     chain with a kink): the caller then interpolates every point."""
     points = np.asarray(points, float)
     params = chord_parameters(points)
-    if len(points) < 5 or params[-1] <= 0:
+    if len(points) < 5 or np.diff(params).min() <= 0:  # too few, or repeated points
         return None
     knots = np.array([0.0, params[-1]])
     found = _refined(points, params, knots, _clamped(knots), np.ones_like(points), tolerance)
@@ -144,7 +144,10 @@ def fit_loop(
     knots, mults, poles = fitted
     split = [poles[:, a:b] for a, b in itertools.pairwise(widths)]
     fit = CubicFit(knots, mults, split[0], tuple(split[1:]))
-    return fit if _keeps_to_chords(fit, params, closed(sets[0]), tolerance) else None
+    # the 3D curves on both faces between their points (a p-curve that swung would show in
+    # its own face's curve: they follow the same points at the same parameters)
+    keeps = all(_keeps_to_chords(fit, params, closed(sets[k]), tolerance, k) for k in (0, 1))
+    return fit if keeps else None
 
 
 def joints(loop: np.ndarray) -> np.ndarray:
@@ -199,8 +202,10 @@ def _refined(
     return None
 
 
-def _keeps_to_chords(fit: CubicFit, params: np.ndarray, points: np.ndarray, tolerance) -> bool:
-    """Whether ``fit`` stays near each chord of ``points`` halfway along it: within the
+def _keeps_to_chords(
+    fit: CubicFit, params: np.ndarray, points: np.ndarray, tolerance: float, which: int = 0
+) -> bool:
+    """Whether ``fit``'s curve ``which`` stays near each chord of ``points`` halfway along it: within the
     tolerance and the sagitta a curve turning as the points do there would have (a
     least-squares cubic can swing between points it meets)."""
     middle = 0.5 * (params[1:] + params[:-1])
@@ -213,7 +218,7 @@ def _keeps_to_chords(fit: CubicFit, params: np.ndarray, points: np.ndarray, tole
     turn = np.arccos(np.clip(cos, -1.0, 1.0))
     turn = np.maximum(turn, np.roll(turn, 1))  # at either end of the chord
     sagitta = length * turn / 4.0  # twice chord * angle / 8
-    off = np.linalg.norm(fit.evaluate(middle) - 0.5 * (points[1:] + points[:-1]), axis=1)
+    off = np.linalg.norm(fit.evaluate(middle, which) - 0.5 * (points[1:] + points[:-1]), axis=1)
     return bool((off <= sagitta + tolerance).all())
 
 

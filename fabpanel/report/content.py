@@ -216,7 +216,15 @@ def _structure_verdict(structure: dict) -> Verdict:
         lines += (f"bolts: utilisation {number(bolts['utilisation'])}",)
     welds = structure.get("welds", {})
     if "utilisation" in welds:
-        lines += (f"welds: utilisation {number(welds['utilisation'])}",)
+        stiffeners = welds.get("stiffeners", {})
+        lines += (
+            f"welds: utilisation {number(welds['utilisation'])}"
+            + (
+                f" (stiffeners {number(stiffeners['utilisation'])})"
+                if "utilisation" in stiffeners
+                else ""
+            ),
+        )
     failed = [k for k, v in structure.get("checks", {}).items() if not v]
     if failed:
         lines += (f"fails: {', '.join(failed)}",)

@@ -27,6 +27,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..errors import GeometryError
 from .shapes import serendipity
 
 #: Gauss-Newton iterations of the inverse S8R map (a flat element converges in two or three)
@@ -64,8 +65,8 @@ def inverse_map(
             ],
             axis=2,
         )  # (m, 3, 2)
-        normal = np.einsum("mdi,mdj->mij", jacobian, jacobian)
-        step = np.linalg.solve(normal, np.einsum("mdi,md->mi", jacobian, residual)[..., None])
+        # least squares, minimum norm where an element is degenerate (as lstsq per point was)
+        step = np.linalg.pinv(jacobian) @ residual[..., None]
         local = np.clip(local + step[..., 0], -1.0, 1.0)
         if not len(step) or np.abs(step).max() < 1e-10:
             break
@@ -125,6 +126,10 @@ def _end_query(model, stations, offset: float, index) -> tuple[np.ndarray, int]:
 def _nearest_of(model, candidates: list[np.ndarray], points: np.ndarray):
     """For each point (q, 3) the nearest point of its candidate elements (the first of equal
     ones): ``(weights (q, 8), that point (q, 3), the element (q,))``."""
+    if any(not len(c) for c in candidates):
+        raise GeometryError(
+            "a corner stiffener's panel has no top or bottom sheet elements to tie it to"
+        )
     owner = np.repeat(np.arange(len(points)), [len(c) for c in candidates])
     elements = np.concatenate(candidates).astype(int)
     w, nearest, distance = inverse_map(model.nodes[model.quads[elements]], points[owner])

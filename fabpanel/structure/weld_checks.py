@@ -52,11 +52,12 @@ def beta_w(fy: float) -> float:
 
 @dataclass(frozen=True)
 class FilletWeld:
-    """The sheet-to-rib weld: its throat ``a`` and the rib it stands on (mm), the steel's
-    ``fu`` and ``fy`` (MPa)."""
+    """A welded joint: the throat ``a`` of its fillets and the lever an edge moment acts on as
+    a couple (mm: the rib a sheet stands on; the plate welded on both faces), the steel's
+    ``fu`` and ``fy`` (MPa), and its fillets (1: a sheet edge, 2: a plate on both faces)."""
 
     throat: float
-    t_rib: float
+    lever: float
     fu: float
     fy: float
     fillets: int = 1
@@ -68,7 +69,7 @@ class FilletWeld:
         bu = Buildup.of(job)
         return cls(
             throat=bu.welds.throat,
-            t_rib=bu.t_rib,
+            lever=bu.t_rib,
             fu=float(job.material.fu),
             fy=float(job.material.fy),
         )
@@ -84,7 +85,7 @@ class FilletWeld:
         bu = Buildup.of(job)
         return cls(
             throat=min(bu.welds.throat, PLATE_THROAT),
-            t_rib=bu.t_stf,
+            lever=bu.t_stf,
             fu=float(job.material.fu),
             fy=float(job.material.fy),
             fillets=2,
@@ -175,33 +176,49 @@ def weld_checks(
     summary's ``stiffeners``."""
     element, side = junction_edges(shell)
     summary, issues = _edge_check(
-        shell, (s_bot, s_top), factors, names, weld, panel_ids, element, side
+        shell, (s_bot, s_top), factors, names, weld, panel_ids, element, side, SHEET_EDGES
     )
     summary["method"] = "EN 1993-1-8 4.5.3.3 (simplified), one fillet weld per sheet edge"
     if stiffener_weld is not None:
         element, side = stiffener_edges(shell)
         if len(element):
             stiffeners, more = _edge_check(
-                shell, (s_bot, s_top), factors, names, stiffener_weld, panel_ids, element, side
+                shell,
+                (s_bot, s_top),
+                factors,
+                names,
+                stiffener_weld,
+                panel_ids,
+                element,
+                side,
+                STIFFENER_SIDES,
             )
             stiffeners["method"] = (
                 "EN 1993-1-8 4.5.3.3 (simplified), a fillet weld on both faces all round"
             )
             summary["stiffeners"] = stiffeners
             summary["ok"] = bool(summary["ok"] and stiffeners["ok"])
-            issues += [
-                Issue(
-                    "stiffener-weld-overloaded",
-                    i.message.replace("sheet edge(s)", "corner stiffener edge(s)").replace(
-                        "raise [sandwich.welds] throat or the sheet thickness",
-                        "raise [sandwich.welds] throat (up to 3 mm on a stiffener) or "
-                        "[sandwich] stiffener_thickness",
-                    ),
-                    severity="error",
-                )
-                for i in more
-            ]
+            issues += more
     return summary, issues
+
+
+@dataclass(frozen=True)
+class _Wording:
+    """How an overloaded weld of one kind is reported."""
+
+    code: str
+    what: str
+    fix: str
+
+
+SHEET_EDGES = _Wording(
+    "weld-overloaded", "sheet edge(s)", "raise [sandwich.welds] throat or the sheet thickness"
+)
+STIFFENER_SIDES = _Wording(
+    "stiffener-weld-overloaded",
+    "corner stiffener side(s)",
+    "raise [sandwich.welds] throat (up to 3 mm on a stiffener) or [sandwich] stiffener_thickness",
+)
 
 
 def stiffener_edges(shell: ShellModel) -> tuple[np.ndarray, np.ndarray]:
@@ -223,9 +240,12 @@ def _edge_check(
     panel_ids: tuple[str, ...],
     element: np.ndarray,
     side: np.ndarray,
+    wording: _Wording,
 ) -> tuple[dict, list[Issue]]:
     """The welds along the element sides ``(element, side)`` (see the module docstring; the
-    edge moment's lever ``weld.t_rib``)."""
+    edge moment a couple on the lever ``weld.lever``: with a fillet on both faces each takes
+    half the traction and the whole couple's force, so the joint's force is the traction plus
+    ``fillets x moment / lever`` against ``fillets x`` a fillet's resistance)."""
     resistance = weld.resistance
     summary: dict = {
         "throat_mm": round(weld.throat, 3),
@@ -242,7 +262,7 @@ def _edge_check(
     combined_m = np.einsum("kc,cnai->knai", factors, membrane)  # (K, k, 3, 3)
     combined_b = np.einsum("kc,cnai->knai", factors, bending)
     moment = np.linalg.norm(combined_b, axis=-1)
-    force = np.linalg.norm(combined_m, axis=-1) + moment / weld.t_rib
+    force = np.linalg.norm(combined_m, axis=-1) + weld.fillets * moment / weld.lever
     worst = np.unravel_index(int(np.argmax(force)), force.shape)
     combo, edge, node = (int(i) for i in worst)
     utilisation = float(force[worst]) / resistance
@@ -267,11 +287,11 @@ def _edge_check(
     panels = sorted({panel_ids[int(p)] for p in shell.panel[element[over], 0]})
     return summary, [
         Issue(
-            "weld-overloaded",
-            f"{int(over.sum())} sheet edge(s) of {len(panels)} panel(s) ({', '.join(panels[:6])}"
-            f"{' ...' if len(panels) > 6 else ''}) need more than the fillet weld's "
-            f"{resistance:.0f} N/mm (a = {weld.throat:g} mm): up to {float(force[worst]):.0f} "
-            f"N/mm under {names[combo]}; raise [sandwich.welds] throat or the sheet thickness",
+            wording.code,
+            f"{int(over.sum())} {wording.what} of {len(panels)} panel(s) ({', '.join(panels[:6])}"
+            f"{' ...' if len(panels) > 6 else ''}) need more than the weld's "
+            f"{resistance:.0f} N/mm ({weld.fillets} x a = {weld.throat:g} mm): up to "
+            f"{float(force[worst]):.0f} N/mm under {names[combo]}; {wording.fix}",
             severity="error",
         )
     ]
