@@ -33,6 +33,10 @@
 - ``rounded_slab``: a gently domed slab 10.8 x 9.5 m whose corners round off at 3 m, no
   openings: a smooth outline that gmsh's pattern-based faces mesh as a disk, rings of panels
   growing to twice the size at the rim;
+- ``skylights``: a gently domed 11 x 8 m roof with three openings about a panel across, two of
+  them rectangles turned off the outline's axes (0.8 x 0.48 m at 30°, 1.2 x 0.7 m at 65°,
+  sides shorter than the gates' 0.6 m merge of close corners) and a 0.9 m round one: the grid
+  should run past each as past a missing panel;
 - ``steep_vault``: a half-cylinder of 4 m radius and 10 m long with two windows in its flanks:
   walls that stand vertical at the springing, where a plan projection fails.
 
@@ -67,10 +71,15 @@ def _ring(geometry) -> np.ndarray:
     return np.asarray(geometry.coords)[:-1, :2]
 
 
-def _mesh(polygon: Polygon, height, spacing: float = SPACING) -> tuple[np.ndarray, np.ndarray]:
-    """A planar domain (shapely polygon with holes) triangulated and lifted by ``height``."""
-    outer = _shapes.resample_closed(_ring(polygon.exterior), spacing)
-    holes = [_shapes.resample_closed(_ring(hole), 0.8 * spacing) for hole in polygon.interiors]
+def _mesh(
+    polygon: Polygon, height, spacing: float = SPACING, keep_corners: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
+    """A planar domain (shapely polygon with holes) triangulated and lifted by ``height``;
+    with ``keep_corners``, every vertex of the polygon turning over 20° stays a mesh vertex
+    (as a CAD export keeps a corner), else the loops are resampled evenly and cut corners."""
+    resample = _resampled_keeping_corners if keep_corners else _shapes.resample_closed
+    outer = resample(_ring(polygon.exterior), spacing)
+    holes = [resample(_ring(hole), 0.8 * spacing) for hole in polygon.interiors]
     if Polygon(outer).exterior.is_ccw is False:
         outer = outer[::-1]
     low, high = np.min(outer, axis=0), np.max(outer, axis=0)
@@ -81,6 +90,34 @@ def _mesh(polygon: Polygon, height, spacing: float = SPACING) -> tuple[np.ndarra
     interior = _shapes._keep_clear(lattice[inside], [outer, *holes], 0.6 * spacing)
     points, triangles = _shapes.triangulate_domain(outer, holes, interior)
     return np.column_stack([points, height(points[:, 0], points[:, 1])]), triangles
+
+
+def _resampled_keeping_corners(ring: np.ndarray, spacing: float) -> np.ndarray:
+    """A closed ring resampled about every ``spacing`` between its corners (vertices turning
+    more than 20°), which stay."""
+    ahead = np.roll(ring, -1, axis=0) - ring
+    behind = ring - np.roll(ring, 1, axis=0)
+    turn = np.abs(
+        np.degrees(
+            np.arctan2(
+                behind[:, 0] * ahead[:, 1] - behind[:, 1] * ahead[:, 0],
+                np.einsum("ij,ij->i", behind, ahead),
+            )
+        )
+    )
+    corners = np.flatnonzero(turn > 20.0)
+    if not len(corners):
+        return _shapes.resample_closed(ring, spacing)
+    points = []
+    for start, end in zip(corners, [*corners[1:], corners[0] + len(ring)]):
+        run = ring[np.arange(start, end + 1) % len(ring)]
+        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(run, axis=0), axis=1))])
+        count = max(1, math.ceil(arc[-1] / spacing))
+        at = np.linspace(0.0, arc[-1], count, endpoint=False)
+        points.append(
+            np.column_stack([np.interp(at, arc, run[:, 0]), np.interp(at, arc, run[:, 1])])
+        )
+    return np.vstack(points)
 
 
 def _rounded_square(half: float, radius: float) -> Polygon:
@@ -233,6 +270,22 @@ def rounded_slab_mesh() -> tuple[np.ndarray, np.ndarray]:
     return _mesh(core.buffer(3.0, quad_segs=16), lambda x, y: 0.8 * np.exp(-(x**2 + y**2) / 30.0))
 
 
+def skylights_mesh() -> tuple[np.ndarray, np.ndarray]:
+    roof = box(-5.5, -4.0, 5.5, 4.0)
+    small = affinity.rotate(box(-0.4, -0.24, 0.4, 0.24), 30)
+    large = affinity.rotate(box(-0.6, -0.35, 0.6, 0.35), 65)
+    domain = (
+        roof.difference(affinity.translate(small, -2.6, 1.1))
+        .difference(affinity.translate(large, 2.4, -0.9))
+        .difference(Point(0.3, 2.2).buffer(0.45, 24))
+    )
+    return _mesh(
+        domain,
+        lambda x, y: 0.9 * np.exp(-(x**2 + y**2) / 30.0) + 0.01 * x * y,
+        keep_corners=True,
+    )
+
+
 SHAPES = {
     "canopy4": canopy4_mesh,
     "dome_oculus": dome_oculus_mesh,
@@ -250,6 +303,7 @@ SHAPES = {
     "steep_vault": steep_vault_mesh,
     "slab_hole": slab_hole_mesh,
     "rounded_slab": rounded_slab_mesh,
+    "skylights": skylights_mesh,
 }
 
 

@@ -144,6 +144,8 @@ def main() -> None:
             failed = sorted({i.code for i in layout.issues if i.code.startswith("layout-")})
             passed += not failed
             tips = " (design tips under 45°)" if gates["outline_tip_corners"] else ""
+            way = layout.metrics.get("field", {}).get("small_openings", "plain")
+            tips += "" if way == "plain" else f" (small openings {way})"
             print(
                 f"{seed:3d} {kind:8s} {layout.method:6s} {seconds:5.1f} s {gates['panels']:4d} "
                 f"panels, count {gates['count_ratio']:.2f}, band {gates['edges_in_band']:.0%}, "

@@ -170,14 +170,15 @@ def test_auto_keeps_a_field_layout_that_passes_every_gate_without_making_the_oth
 
 
 def test_auto_compares_both_methods_when_the_field_layout_fails_a_gate(tmp_path):
-    # the slab's 0.9 m opening and 1.1 m roundings leave 90 % of the field layout's corners
-    # in 60-120°
+    # the slab's 0.9 m opening and 1.1 m roundings leave the field layout short of a gate
+    # (punched out, the opening leaves 85 % of the edges in the band: the 4.7 m depth in three
+    # rows of panels on one side of it)
     layout = fp.panelize(_hard_shape("slab_hole", tmp_path), _job("1 m"))
     auto = layout.metrics["auto"]
     assert set(auto["scores"]) == {"skeleton", "field"}
     assert auto["chosen"] == layout.method == "field"
     assert auto["scores"]["field"] == max(auto["scores"].values())
-    assert "layout-corner-angle" in auto["gates_failed"]["field"]
+    assert auto["gates_failed"]["field"]
     assert "field scores" in auto["reason"]
 
 
@@ -322,6 +323,29 @@ def test_a_smooth_outline_is_not_meshed_as_a_disk(tmp_path):
     assert gates["edges_in_band"] >= 0.9  # measured 1.0
     assert gates["corners_outside_45_135"] == 0  # measured 64-125°
     assert gates["corners_in_60_120"] >= 0.95  # measured 0.99
+
+
+def test_small_openings_are_missing_panels_of_the_grid(tmp_path):
+    # three openings about a panel across, two of them rectangles turned off the axes with
+    # sides under the 0.6 m at which close corners merge: meshed as loops, gmsh gave each
+    # eight edges of 0.25-0.4 m or merged the short sides' corners (150° panel corners);
+    # filled in and punched out, each is bounded by four panel sides
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    surface = _hard_shape("skylights", tmp_path)
+    layout = fp.panelize(surface, _job("1 m", method="field"))
+    assert layout.metrics["field"]["small_openings"] == "punched"
+    sides = np.sort(np.stack([layout.quads, np.roll(layout.quads, -1, axis=1)], 2), 2)
+    edges, counts = np.unique(sides.reshape(-1, 2), axis=0, return_counts=True)
+    once = edges[counts == 1]
+    graph = coo_matrix((np.ones(len(once)), (once[:, 0], once[:, 1])), (len(layout.vertices),) * 2)
+    _, label = connected_components(graph, directed=False)
+    per_loop = np.bincount(label[once[:, 0]])
+    per_loop = np.sort(per_loop[per_loop > 0])
+    assert len(per_loop) == 4 and list(per_loop[:3]) == [4, 4, 4]  # and the roof's outline
+    gates = layout.metrics["gates"]
+    assert meets_every_gate(gates, 300.0)  # measured 97 panels, 60-134°, 99 %, band 95 %
 
 
 def test_a_layout_corner_on_a_smooth_lobe_is_dissolved(tmp_path):

@@ -168,12 +168,16 @@ def _plate_with_openings(openings: list[tuple[float, float, float]]) -> Surface:
 
 
 def test_a_small_round_opening_reaches_the_mesher_as_a_square_set_to_the_field():
-    from fabpanel.panelize.corners import squared_small_openings
+    from fabpanel.panelize.corners import small_openings
 
     surface = _plate_with_openings([(4000.0, 4000.0, 450.0), (8500.0, 4000.0, 1500.0)])
     flat = surface.vertices[:, :2]
     found = outline_corners(surface, flat, 30.0, 300.0, panel_size=1000.0)
-    kept, mesher = squared_small_openings(found, surface, flat, 1000.0)
+    small = small_openings(found, surface, flat, 1000.0)
+    assert small is not None and small.indices == (1,)
+    kept, mesher = small.kept, small.squared
+    # filled in for the punched layout: only the outer loop and the 3 m opening are meshed
+    assert len(small.filled.loops) == 2 and len(small.filled.loops[1]) == len(found.loops[2])
     # the 0.9 m opening (2.8 m round, under 5 panel sizes): four corners a quarter apart
     square = flat[mesher.loops[1]]
     assert len(square) == 4 and mesher.corners[1].all()
@@ -186,8 +190,33 @@ def test_a_small_round_opening_reaches_the_mesher_as_a_square_set_to_the_field()
     np.testing.assert_allclose(directions, 45.0, atol=8.0)
     # the 3 m opening (9.4 m round) stays a smooth loop, every vertex given to the mesher
     assert not mesher.corners[2].any() and len(mesher.loops[2]) == len(surface.boundary_loops[2])
-    # with no small opening, both outlines are the one found
+    # with no small opening, none
     plain = _plate_with_openings([(6000.0, 4000.0, 1500.0)])
     found = outline_corners(plain, plain.vertices[:, :2], 30.0, 300.0, panel_size=1000.0)
-    kept, mesher = squared_small_openings(found, plain, plain.vertices[:, :2], 1000.0)
-    assert kept is found and mesher is found
+    assert small_openings(found, plain, plain.vertices[:, :2], 1000.0) is None
+
+
+def test_a_small_rectangular_opening_keeps_its_four_corners():
+    from fabpanel.panelize.corners import small_openings
+
+    turn = np.radians(30.0)
+    rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    corners = np.array([[-400, -240], [400, -240], [400, 240], [-400, 240]], float) @ rotation.T
+    hole = _resampled(corners + [4000.0, 3000.0], 100.0)[::-1]  # clockwise, corners cut
+    outer = _resampled(np.array([[0, 0], [8000, 0], [8000, 6000], [0, 6000]], float), 200.0)
+    points = np.vstack([outer, hole])
+    vertices = np.column_stack([points, np.zeros(len(points))])
+    loops = (np.arange(len(outer)), len(outer) + np.arange(len(hole)))
+    surface = Surface(vertices, np.zeros((0, 3), dtype=int), loops, Path("o.obj"), "obj", "mm")
+    found = outline_corners(surface, points, 30.0, 300.0, panel_size=1000.0)
+    # its 0.48 m ends are shorter than twice the 0.3 m merge: their corners merged in pairs
+    assert found.corners[1].sum() == 2
+    small = small_openings(found, surface, points, 1000.0)
+    assert small is not None and small.indices == (1,)
+    kept = points[small.kept.loops[1][small.kept.corners[1]]]
+    assert len(kept) == 4
+    # each within the cut of a true corner (samples 100 mm apart, none on a corner)
+    gaps = np.linalg.norm(kept[:, None] - (corners + [4000.0, 3000.0])[None], axis=2)
+    assert np.all(gaps.min(axis=1) < 60.0) and len(set(gaps.argmin(axis=1))) == 4
+    assert np.array_equal(small.squared.loops[1], small.kept.loops[1][small.kept.corners[1]])
+    assert len(small.filled.loops) == 1

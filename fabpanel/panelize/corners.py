@@ -36,7 +36,7 @@ on the surface.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -63,6 +63,8 @@ class OutlineCorners:
     loops: tuple[np.ndarray, ...]
     corners: tuple[np.ndarray, ...]
     cut_corners: np.ndarray
+    corner_angle: float  # degrees, and the stretch (mm) that they were found with
+    merge: float
 
 
 def outline_corners(
@@ -78,20 +80,32 @@ def outline_corners(
     for loop in surface.boundary_loops:
         turning = turning_angles(flat[loop])
         arc = _arc_lengths(surface.vertices[loop])
-        candidate = (np.abs(turning) > corner_angle) | (
-            np.abs(_window_sums(turning, arc, merge)) > corner_angle
-        )
-        corner, dropped = _sharpest_of_each_run(candidate, turning, arc, merge)
-        if panel_size is not None:
-            corner, dropped = _tight_roundings(corner, dropped, turning, arc, panel_size)
+        corner, dropped = _loop_corners(turning, arc, corner_angle, merge, panel_size)
         corner, dropped = _one_corner_of_close_pairs(corner, dropped, turning, arc, 2 * merge)
         keep = ~dropped
         loops.append(loop[keep])
         corners.append(corner[keep])
         cut.append(loop[_cut_of(corner, dropped, turning, arc, 2 * merge)])
     return OutlineCorners(
-        loops=tuple(loops), corners=tuple(corners), cut_corners=np.concatenate(cut)
+        loops=tuple(loops),
+        corners=tuple(corners),
+        cut_corners=np.concatenate(cut),
+        corner_angle=corner_angle,
+        merge=merge,
     )
+
+
+def _loop_corners(
+    turning: np.ndarray, arc: np.ndarray, corner_angle: float, merge: float, size: float | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per vertex of one loop: is it a corner, is it left out (close pairs not yet merged)."""
+    candidate = (np.abs(turning) > corner_angle) | (
+        np.abs(_window_sums(turning, arc, merge)) > corner_angle
+    )
+    corner, dropped = _sharpest_of_each_run(candidate, turning, arc, merge)
+    if size is not None:
+        corner, dropped = _tight_roundings(corner, dropped, turning, arc, size)
+    return corner, dropped
 
 
 def _cut_of(
@@ -217,42 +231,93 @@ def _tight_roundings(
     return corner, dropped
 
 
-def squared_small_openings(
+@dataclass(frozen=True)
+class SmallOpenings:
+    """The small openings of an outline (module docstring) and the outlines made of them.
+
+    ``kept``: the outline with each small opening given four corners (a smooth one's a quarter
+    round apart, set square to the cross field; a rectangle's its own four, not merged in pairs
+    however short its sides); ``squared``: the outline the mesher gets with those openings as
+    their four corners joined by straight lines; ``filled``: the outline the mesher gets without
+    them, the quad over each punched out afterwards (:mod:`.punch`); ``indices``: the small
+    openings' loop indices in the outline."""
+
+    kept: OutlineCorners
+    squared: OutlineCorners
+    filled: OutlineCorners
+    indices: tuple[int, ...]
+
+
+def small_openings(
     outline: OutlineCorners,
     surface: Surface,
     flat: np.ndarray,
     panel_size: float,
-) -> tuple[OutlineCorners, OutlineCorners]:
-    """The outline with every small smooth opening (module docstring) given four corners, and
-    the outline the mesher gets, in which those openings are only their four corners (joined
-    by straight lines). Returns ``(outline, for_mesher)``; both are ``outline`` when there is
-    no such opening."""
-    small = [
-        index
-        for index, (loop, corners) in enumerate(zip(outline.loops, outline.corners, strict=True))
-        if index > 0
-        and not corners.any()
-        and _arc_lengths(surface.vertices[loop])[-1] <= SMALL_OPENING * panel_size
-    ]
-    if not small:
-        return outline, outline
+) -> SmallOpenings | None:
+    """The small openings of ``outline`` (:class:`SmallOpenings`), or None where it has none."""
+    four = {
+        index: corners
+        for index, corners in enumerate(_four_corners_of_small(outline, surface, flat, panel_size))
+        if corners is not None
+    }
+    if not four:
+        return None
     from .cross_field import boundary_cross_field
 
-    steering = [loop for i, loop in enumerate(surface.boundary_loops) if i not in small]
-    theta = boundary_cross_field(surface.faces, flat, steering)
-    corners = list(outline.corners)
+    smooth = [index for index, (_, corner, _) in four.items() if not len(corner)]
+    if smooth:
+        steering = [loop for i, loop in enumerate(surface.boundary_loops) if i not in four]
+        theta = boundary_cross_field(surface.faces, flat, steering)
+    loops, corners = list(outline.loops), list(outline.corners)
     mesher_loops, mesher_corners = list(outline.loops), list(outline.corners)
-    for index in small:
-        loop = outline.loops[index]
-        square = _square_corners(flat[loop], _field_angle_at(surface.faces, theta, loop))
-        corners[index] = np.zeros(len(loop), dtype=bool)
-        corners[index][square] = True
-        mesher_loops[index] = loop[np.sort(square)]
+    for index, (loop, corner, _) in four.items():
+        if not len(corner):  # smooth: four vertices a quarter round apart, set to the field
+            corner = np.zeros(len(loop), dtype=bool)
+            corner[_square_corners(flat[loop], _field_angle_at(surface.faces, theta, loop))] = True
+        loops[index], corners[index] = loop, corner
+        mesher_loops[index] = loop[corner]
         mesher_corners[index] = np.ones(4, dtype=bool)
-    return (
-        OutlineCorners(outline.loops, tuple(corners), outline.cut_corners),
-        OutlineCorners(tuple(mesher_loops), tuple(mesher_corners), outline.cut_corners),
+    unfilled = [i for i in range(len(outline.loops)) if i not in four]
+
+    # their corners are taken one by one now, not merged in pairs: only their own cuts stay
+    whole = np.concatenate([surface.boundary_loops[i] for i in four])
+    in_small = np.isin(outline.cut_corners, whole)
+    cut = np.concatenate([outline.cut_corners[~in_small], *[c for _, _, c in four.values()]])
+
+    def _outline(loops: list, corners: list) -> OutlineCorners:
+        return replace(outline, loops=tuple(loops), corners=tuple(corners), cut_corners=cut)
+
+    return SmallOpenings(
+        kept=_outline(loops, corners),
+        squared=_outline(mesher_loops, mesher_corners),
+        filled=_outline([loops[i] for i in unfilled], [corners[i] for i in unfilled]),
+        indices=tuple(sorted(four)),
     )
+
+
+def _four_corners_of_small(
+    outline: OutlineCorners, surface: Surface, flat: np.ndarray, panel_size: float
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray] | None]:
+    """Per loop of the outline: for a small opening, its vertices and corner flags with
+    exactly four corners (no flags for a smooth one: its four are chosen later) and its cut
+    corners (:class:`OutlineCorners`); else None.
+    A small opening with corners is looked at again without merging close corners in pairs:
+    a 0.8 x 0.5 m rectangle at 1 m panels has four corners, not the two that merging its
+    short sides' ends left (two 150° corners of the layout there)."""
+    found: list[tuple[np.ndarray, np.ndarray, np.ndarray] | None] = [None] * len(outline.loops)
+    for index, loop in enumerate(surface.boundary_loops):
+        if index == 0 or _arc_lengths(surface.vertices[loop])[-1] > SMALL_OPENING * panel_size:
+            continue
+        if not outline.corners[index].any():
+            found[index] = (outline.loops[index], np.zeros(0, dtype=bool), np.zeros(0, int))
+            continue
+        turning = turning_angles(flat[loop])
+        arc = _arc_lengths(surface.vertices[loop])
+        corner, dropped = _loop_corners(turning, arc, outline.corner_angle, outline.merge, None)
+        if int(corner.sum()) == 4:
+            cut = loop[_cut_of(corner, dropped, turning, arc, 2 * outline.merge)]
+            found[index] = (loop[~dropped], corner[~dropped], cut)
+    return found
 
 
 def _field_angle_at(faces: np.ndarray, theta: np.ndarray, loop: np.ndarray) -> float:
