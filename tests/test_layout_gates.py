@@ -348,6 +348,22 @@ def test_small_openings_are_missing_panels_of_the_grid(tmp_path):
     assert meets_every_gate(gates, 300.0)  # measured 97 panels, 60-134°, 99 %, band 95 %
 
 
+def test_panels_near_the_plate_width_are_brought_onto_it_without_a_smaller_size(tmp_path):
+    # 1.2 m panels on the default 3 x 1.5 m plate (1480 mm usable): the band's 1.25 x panel
+    # size is wider than the plate, gmsh's coarsest mesh (34 quads) missed it, and two plate
+    # rounds (12 % smaller everywhere) ended at 62 panels; now the band smoothing holds edges
+    # under the plate's width and gmsh's next finer mesh (42 quads) is placed before a round
+    from fabpanel.panelize.decompose import oversize_panels
+
+    job = _job("1.2 m", method="field")
+    layout = fp.panelize(_hard_shape("hypar_hole", tmp_path), job)
+    field = layout.metrics["field"]
+    assert field["plate_rounds"] == 0 and field["size_used_mm"] == 1200.0
+    assert field["finer_mesh"] >= 1
+    assert not oversize_panels(layout.vertices, layout.quads, job).any()
+    assert layout.metrics["gates"]["count_ratio"] <= 1.3  # measured 1.24 (42 panels)
+
+
 def test_a_layout_corner_on_a_smooth_lobe_is_dissolved(tmp_path):
     # gmsh puts a boundary vertex of one panel on the funnel's 2.5 m lobe: 159-165° however
     # the outline nodes slide; dissolved, its inner vertex has three panels (one or two such

@@ -155,9 +155,14 @@ def gate_band(
     reference: np.ndarray,
     size: float,
     sliding: np.ndarray | None = None,
+    longest: float = np.inf,
 ) -> GateBand:
     """The limits of every corner of the counter-clockwise flat ``quads`` (see the module
-    docstring), with the arguments of :func:`chord_metrics`. The one corner at a vertex of one
+    docstring), with the arguments of :func:`chord_metrics`; edges are held under ``longest``
+    (mm) too where that is below the band's top: the plate's usable width, where panels a
+    quarter over the panel size would not fit it (1.2 m panels on a 1.5 m plate), so that a
+    layout that misses the plate is brought onto it without a smaller size everywhere. The
+    one corner at a vertex of one
     panel gets none where that vertex is a corner of the outline (its angle is the outline's);
     where it slides along a smooth stretch (``sliding``, node ids; none by default) it gets
     the same limits as any other: on a rounded end (the tip of an ellipse, a lobe) its angle is
@@ -194,7 +199,8 @@ def gate_band(
         (hard_upper, 2.0 * np.pi),
     ):
         limit[loose] = value
-    return GateBand(lower, upper, metric, hard_lower, hard_upper)
+    edge_upper = min(EDGE_BAND[1], longest / size) - EDGE_MARGIN
+    return GateBand(lower, upper, metric, hard_lower, hard_upper, edge_upper=edge_upper)
 
 
 def _corners_to_sacrifice(total: float, corners: int, good: float, hard: float) -> int:
