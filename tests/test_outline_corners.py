@@ -220,3 +220,17 @@ def test_a_small_rectangular_opening_keeps_its_four_corners():
     assert np.all(gaps.min(axis=1) < 60.0) and len(set(gaps.argmin(axis=1))) == 4
     assert np.array_equal(small.squared.loops[1], small.kept.loops[1][small.kept.corners[1]])
     assert len(small.filled.loops) == 1
+    # cut corners: the two merged ones no longer, the hole's four own cuts instead (no sample
+    # lands on a corner, so each of the four is cut by its neighbours within 100 mm)
+    hole_ids = loops[1]
+    assert np.isin(found.cut_corners, hole_ids).sum() == 2
+    on_hole = small.kept.cut_corners[np.isin(small.kept.cut_corners, hole_ids)]
+    assert set(on_hole) == set(small.kept.loops[1][small.kept.corners[1]])
+    # an opening under four of the gates' shortest edges round stays a loop of its own
+    tiny = _resampled(corners * 0.25 + [4000.0, 3000.0], 40.0)[::-1]
+    points = np.vstack([outer, tiny])
+    vertices = np.column_stack([points, np.zeros(len(points))])
+    loops = (np.arange(len(outer)), len(outer) + np.arange(len(tiny)))
+    surface = Surface(vertices, np.zeros((0, 3), dtype=int), loops, Path("o.obj"), "obj", "mm")
+    found = outline_corners(surface, points, 30.0, 300.0, panel_size=1000.0)
+    assert small_openings(found, surface, points, 1000.0) is None

@@ -24,8 +24,13 @@ def _signed_areas(nodes: np.ndarray, quads: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.parametrize("clockwise", [False, True])
-def test_the_quad_over_the_opening_goes_and_its_nodes_move_onto_the_corners(clockwise):
+@pytest.mark.parametrize("quads_clockwise", [False, True])
+def test_the_quad_over_the_opening_goes_and_its_nodes_move_onto_the_corners(
+    clockwise, quads_clockwise
+):
     nodes, quads, on_curve = _grid(5)
+    if quads_clockwise:  # gmsh's quads may turn either way
+        quads = quads[:, ::-1]
     # a 0.8 x 0.5 m rectangle turned 20° in the middle cell (2.5, 2.5) m, corners in loop order
     turn = np.radians(20.0)
     rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
@@ -44,7 +49,8 @@ def test_the_quad_over_the_opening_goes_and_its_nodes_move_onto_the_corners(cloc
     np.testing.assert_allclose(np.sort(moved[gone[0]], axis=0), np.sort(corners, axis=0))
     assert boundary[gone[0]].all() and boundary.sum() == on_curve.sum() + 4
     # matched round without a twist: the mesh stays unfolded (every quad turns one way)
-    assert (_signed_areas(moved, kept) > 0).all()
+    turning = _signed_areas(moved, kept)
+    assert (turning < 0).all() if quads_clockwise else (turning > 0).all()
     # the least movement of the four matchings round the cell (0.25-0.40 m each)
     assert np.linalg.norm(moved - nodes, axis=1).max() < 410.0
 
@@ -72,3 +78,10 @@ def test_two_openings_take_two_quads_and_a_fixed_node_is_not_moved():
     # the first opening sat in its own cell: the quads round it stay unfolded
     around = (np.abs(moved[kept].mean(axis=1) - 2500.0) < 1600.0).all(axis=1)
     assert (_signed_areas(moved, kept[around]) > 0).all()
+
+
+def test_an_opening_needs_four_corners():
+    nodes, quads, on_curve = _grid(5)
+    triangle = np.array([[2200.0, 2200.0], [2800.0, 2200.0], [2500.0, 2800.0]])
+    with pytest.raises(PunchFailed):
+        punched(nodes, quads, on_curve, (triangle,), np.zeros(len(nodes), dtype=bool))

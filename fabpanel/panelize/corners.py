@@ -13,14 +13,17 @@ its triangles into quads, so a boundary curve always gets an even number of edge
 two, and a curve shorter than ``2 x merge`` gives edges shorter than the gates allow (a 112 mm
 facet cutting a 90° corner at 0.32 m panels made two 56 mm edges).
 
-A small smooth opening (perimeter up to ``SMALL_OPENING`` panel sizes, a round or oval hole
-about a panel across) reaches the mesher as a square: four of its vertices, a quarter of its
-perimeter apart and set square to the cross field that the rest of the outline would give
-there, joined by straight lines. The quad grid then runs past it as past a missing panel, three
-panels at each of the four corners. Seen as a smooth loop, a 0.8 m hole at 1 m panels got a
-ring of eight panels and five or six singular vertices round it, with a third of their corners
-outside 60-120°. The nodes on the square's sides are put onto the real opening afterwards
-(the layout's sides there follow the opening on the surface).
+A small opening (perimeter up to ``SMALL_OPENING`` panel sizes, a round or oval hole or a
+rectangle about a panel across) gets four corners: a smooth one four of its vertices, a quarter
+of its perimeter apart and set square to the cross field that the rest of the outline would
+give there; a rectangle its own four, taken one by one even where its short sides are shorter
+than twice ``merge``. The mesher then gets it filled in, and the quad over it is punched out
+afterwards (:mod:`.punch`), or, where no quad can be, as its four corners joined by straight
+lines (each side then gets two edges). The quad grid runs past it as past a missing panel,
+three panels at each of the four corners. Seen as a smooth loop, a 0.8 m hole at 1 m panels
+got a ring of eight panels and five or six singular vertices round it, with a third of their
+corners outside 60-120°; a 0.8 x 0.48 m rectangle its short sides' corners merged in pairs and
+two panel corners of 150-158°. The layout's sides on the opening follow it on the surface.
 
 A tight rounding (a rounded corner of the plan, radius under about a panel) is a corner too:
 where the outline turns more than ``ROUNDING_TURN`` within one panel size of arc, and not more
@@ -45,8 +48,11 @@ from .skeleton_input import turning_angles
 
 #: a vertex left out beside a corner that turns more than this (degrees) was a facet of it
 FACET_TURN = 5.0
-#: an opening without corners shorter than this round (x the panel size) is meshed as a square
+#: an opening shorter than this round (x the panel size), smooth or with four corners, is a
+#: missing panel of the grid (:class:`SmallOpenings`) ...
 SMALL_OPENING = 5.0
+#: ... unless shorter than this: four sides of the gates' shortest edge (0.3 x panel size)
+SMALLEST_OPENING = 1.2
 #: a rounding that turns more than this (degrees) within one panel size of arc is one corner
 ROUNDING_TURN = 60.0
 #: ... unless it turns more than this within two panel sizes (a rounded end, not a corner)
@@ -306,8 +312,11 @@ def _four_corners_of_small(
     short sides' ends left (two 150° corners of the layout there)."""
     found: list[tuple[np.ndarray, np.ndarray, np.ndarray] | None] = [None] * len(outline.loops)
     for index, loop in enumerate(surface.boundary_loops):
-        if index == 0 or _arc_lengths(surface.vertices[loop])[-1] > SMALL_OPENING * panel_size:
+        perimeter = _arc_lengths(surface.vertices[loop])[-1]
+        if index == 0 or len(loop) < 4 or perimeter > SMALL_OPENING * panel_size:
             continue
+        if perimeter < SMALLEST_OPENING * panel_size:
+            continue  # its four panel sides would be shorter than the gates' shortest edge
         if not outline.corners[index].any():
             found[index] = (outline.loops[index], np.zeros(0, dtype=bool), np.zeros(0, int))
             continue

@@ -14,9 +14,12 @@
    without QQS's pattern-based faces is made as well and the better layout kept
    (``TOPOLOGIES``);
 3. the quads are mapped back onto the surface through the flattening's triangles, and the
-   boundary vertices are put on the design boundary exactly;
-4. while a panel does not fit the usable plate, the whole layout is made again with panels
-   12 % smaller (up to three rounds), as the skeleton method divides its strips again.
+   boundary vertices are put on the design boundary exactly; where that layout fails a gate,
+   small openings (about a panel across) are filled in for gmsh and the quad over each
+   punched out afterwards (:mod:`.punch`), and the better layout kept;
+4. while a panel does not fit the usable plate, gmsh's next finer meshes at the same size are
+   placed (small layouts), then the whole layout is made again with panels 12 % smaller (up
+   to three rounds), as the skeleton method divides its strips again.
 
 Any count of openings works; the surface must be one piece with a boundary (a closed surface
 has no loop to flatten from) of disc-like topology with holes.
@@ -76,10 +79,10 @@ CORNER_TOLERANCE = 1e-3
 #: a thousand panels
 BAND_OUTER = 1
 
-#: the layout with small openings as squares is made only beside a plain one of at most this
-#: many panels that fails a gate: an opening about a panel across matters in a coarse layout,
-#: and a second layout doubled the pavilion's 25 s
-SQUARED_UP_TO_PANELS = 500
+#: a second layout (small openings punched or squared, another topology step) is made only
+#: beside one of at most this many panels that fails a gate: an opening about a panel across
+#: matters in a coarse layout, and a second layout doubled the pavilion's 25 s
+SECOND_LAYOUT_UP_TO_PANELS = 500
 
 #: QQS's topology steps (``Mesh.QuadqsTopologyOptimizationMethods``), tried in turn: first
 #: pattern-based faces and disk quadrangulation, but no cavity remeshing (that step runs
@@ -90,9 +93,10 @@ SQUARED_UP_TO_PANELS = 500
 #: panels out to the boundary: on a 12 m rounded square, boundary edges twice as long as the
 #: inner ones, and twice the panel count once the boundary panels were made to fit the plate
 #: (disk quadrangulation alone: 114 panels, every gate passed); on an ellipse at 0.35 m, a
-#: quarter of the panel count. On domains with openings both gave the same meshes.
+#: quarter of the panel count. On domains with openings both gave the same meshes. (A domain
+#: whose only openings are small ones filled in for punching is one without openings here.)
 TOPOLOGIES = (110, 10)
-#: ... beyond ``SQUARED_UP_TO_PANELS`` only where the first layout is as far off as this: a
+#: ... beyond ``SECOND_LAYOUT_UP_TO_PANELS`` only where the first layout is as far off as this: a
 #: share of edges in the gates' band under ``FAR_OFF_BAND``, or a count ratio outside
 #: ``FAR_OFF_COUNT``
 FAR_OFF_BAND = 0.8
@@ -133,7 +137,7 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     for way, kept, mesher, punches in _ways_with_small_openings(outline, surface, flat, job):
         if best is not None and (
             meets_every_gate(best.measures, min_width, tips_apart=True)
-            or len(best.quads) > SQUARED_UP_TO_PANELS
+            or len(best.quads) > SECOND_LAYOUT_UP_TO_PANELS
         ):
             break
         if way == "squared" and punched_made:
@@ -222,27 +226,55 @@ def _fitted_layout(
     """gmsh's quads of the outline ``mesher`` placed on the surface (the better of two
     topology settings where the first fails, ``TOPOLOGIES``); while a panel misses the plate,
     made again with smaller panels everywhere (module docstring, step 4). A finer mesh of
-    gmsh's that fits at the size before (:func:`_placed_mesh`) is kept beside the round's
-    result, and the better scoring of the two is taken: on a hypar at 1.2 m it has 50 panels
-    where the rounds end at 62, but a 36° corner."""
+    gmsh's that fits at the size before (:func:`_placed_mesh`) is kept beside one more round's
+    result, and the better scoring layout taken (on hypar_hole at 1.2 m: 42 panels at the
+    asked size against 58 and 62 after one and two rounds). Raises :class:`.punch.PunchFailed`
+    where the first mesh has a small opening no quad can be punched for; where a later one
+    has, the rounds stop there."""
     size = job.panelize.panel_size
     min_width = min_panel_width(job)
-    finer: list[_Placed] = []
+    fitted: list[_Placed] = []  # layouts of earlier rounds that fit (finer meshes)
+    best: _Placed | None = None
     for plate_round in range(PLATE_ROUNDS + 1):
-        first, alone = TOPOLOGIES
-        placed = [_placed_mesh(surface, mesher, domain, job, size, first)]
-        if len(mesher.loops) == 1 and _worth_another_topology(placed[0], min_width):
-            placed.append(_placed_mesh(surface, mesher, domain, job, size, alone))
-        for p in placed:
-            p.info.update(plate_rounds=plate_round, size_used_mm=round(float(size), 1))
+        try:
+            placed = _round_of_layouts(surface, mesher, domain, job, size, min_width)
+        except PunchFailed:
+            if best is None:
+                raise
+            break
+        for layout in placed:
+            layout.info.update(plate_rounds=plate_round, size_used_mm=round(float(size), 1))
         # fits first, then the score; the first topology on a tie
         best = max(placed, key=lambda p: (p.fits, layout_score(p.measures, min_width)))
-        if (best.fits and "finer_mesh" not in best.info) or plate_round == PLATE_ROUNDS:
-            break
-        finer += [p for p in placed if p.fits]
+        done = best.fits and "finer_mesh" not in best.info
+        if done or plate_round == PLATE_ROUNDS or fitted:
+            break  # (one round after a finer mesh that fitted, to compare)
+        fitted += [layout for layout in placed if layout.fits]
         size *= PLATE_SHRINK  # some panels miss the plate: smaller panels everywhere
-    best = max([best, *finer], key=lambda p: (p.fits, layout_score(p.measures, min_width)))
+    assert best is not None
+    best = max([best, *fitted], key=lambda p: (p.fits, layout_score(p.measures, min_width)))
     return best.vertices, best.mesh.quads, best.info
+
+
+def _round_of_layouts(
+    surface: Surface,
+    mesher: OutlineCorners,
+    domain: _Domain,
+    job: Job,
+    size: float,
+    min_width: float,
+) -> list[_Placed]:
+    """The layouts of one size: QQS's first topology setting, and its second where the first
+    is worth another (:func:`_worth_another_topology`; a second that cannot be punched is
+    left out)."""
+    first, alone = TOPOLOGIES
+    placed = [_placed_mesh(surface, mesher, domain, job, size, first)]
+    if len(mesher.loops) == 1 and _worth_another_topology(placed[0], min_width):
+        try:
+            placed.append(_placed_mesh(surface, mesher, domain, job, size, alone))
+        except PunchFailed as failed:
+            log.info("second topology not punched: %s", failed)
+    return placed
 
 
 def _worth_another_topology(placed: _Placed, min_width: float) -> bool:
@@ -259,7 +291,7 @@ def _worth_another_topology(placed: _Placed, min_width: float) -> bool:
         or measures["edges_in_band"] < FAR_OFF_BAND
         or not FAR_OFF_COUNT[0] <= measures["count_ratio"] <= FAR_OFF_COUNT[1]
     )
-    return far_off or measures["panels_for_area"] <= SQUARED_UP_TO_PANELS
+    return far_off or measures["panels_for_area"] <= SECOND_LAYOUT_UP_TO_PANELS
 
 
 @dataclass(frozen=True)
@@ -278,20 +310,23 @@ def _placed_mesh(
 ) -> _Placed:
     """gmsh's quads at panel ``size`` with QQS's ``topology`` steps, placed on the surface;
     where a panel misses the plate, gmsh's next finer meshes at the same size are placed in
-    turn (up to ``FINER_AT_MOST`` x the quads, on small layouts), the first that fits kept:
-    QQS's count moves
-    in steps (34, 42, 50, 58 quads on a hypar at 1.2 m), and a step finer often fits where the
-    caller's plate round, 12 % smaller everywhere, would add a third more panels."""
+    turn (up to ``FINER_AT_MOST`` x the quads, on small layouts; one that cannot be punched is
+    passed over), the first that fits kept: QQS's count moves in steps (34, 42, 50, 58 quads
+    on a hypar at 1.2 m), and a step finer often fits where the caller's plate round, 12 %
+    smaller everywhere, would add a third more panels."""
     meshes = _gmsh_quads(
         surface, domain.flat_mesh.flat, domain.scale, mesher, domain.points, job, size, topology
     )
     first = _placed(surface, domain, job, meshes[0])
-    if surface.area / size**2 > FINER_UP_TO_PANELS:
+    if first.fits or surface.area / size**2 > FINER_UP_TO_PANELS:
         return first
     for tried, finer in enumerate(meshes[1:], start=1):
-        if first.fits or len(finer.quads) > FINER_AT_MOST * len(meshes[0].quads):
+        if len(finer.quads) > FINER_AT_MOST * len(meshes[0].quads):
             break
-        placed = _placed(surface, domain, job, finer)
+        try:
+            placed = _placed(surface, domain, job, finer)
+        except PunchFailed:
+            continue
         if placed.fits:
             placed.info["finer_mesh"] = tried
             return placed
@@ -370,8 +405,9 @@ def _place(
     missed = bool(oversize_panels(vertices, mesh.quads, job).any())
     if before.passes and not missed:
         return vertices, relaxation
-    # the bands also hold every edge under 1.25 x panel_size, which often brings a squared
-    # boundary panel that misses the plate back onto it (else the caller pins or shrinks)
+    # the bands also hold every edge under 1.25 x panel_size (and the plate's usable width),
+    # which often brings a squared boundary panel that misses the plate back onto it (else
+    # the caller pins or shrinks)
     banded, band_relaxation = _relax(domain, mesh, slide, pinned, relaxed, band=True)
     in_band = _on_surface(domain, mesh, banded)
     after = band_measures(in_band, mesh.quads, domain.target)
@@ -659,8 +695,16 @@ def _finer_meshes(out, size: float, info: dict) -> list[_Meshed]:
     quads = np.split(out["finer_quads"].astype(np.int64), quad_ends[:-1])
     on_curve = np.split(out["finer_on_curve"], node_ends[:-1])
     return [
-        _Meshed(n, q, c, size, {**info, "size_factor": round(float(f), 4)})
-        for n, q, c, f in zip(nodes, quads, on_curve, out["finer_factors"], strict=True)
+        _Meshed(
+            n,
+            q,
+            c,
+            size,
+            {**info, "size_factor": round(float(f), 4), "flat_score": round(float(sc), 4)},
+        )
+        for n, q, c, f, sc in zip(
+            nodes, quads, on_curve, out["finer_factors"], out["finer_scores"], strict=True
+        )
     ]
 
 

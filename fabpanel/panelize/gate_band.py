@@ -162,11 +162,11 @@ def gate_band(
     (mm) too where that is below the band's top: the plate's usable width, where panels a
     quarter over the panel size would not fit it (1.2 m panels on a 1.5 m plate), so that a
     layout that misses the plate is brought onto it without a smaller size everywhere. The
-    one corner at a vertex of one
-    panel gets none where that vertex is a corner of the outline (its angle is the outline's);
-    where it slides along a smooth stretch (``sliding``, node ids; none by default) it gets
-    the same limits as any other: on a rounded end (the tip of an ellipse, a lobe) its angle is
-    made by where it and its neighbours sit, and left alone it opens to 140-165°."""
+    one corner at a vertex of one panel gets none where that vertex is a corner of the outline
+    (its angle is the outline's); where it slides along a smooth stretch (``sliding``, node
+    ids; none by default) it gets the same limits as any other: on a rounded end (the tip of
+    an ellipse, a lobe) its angle is made by where it and its neighbours sit, and left alone
+    it opens to 140-165°."""
     metric = chord_metrics(flat, on_surface, quads, reference, size)
     angle = np.radians(corner_angles(on_surface[quads]).ravel())
     good = np.radians([CORNER_GOOD[0] + MARGIN, CORNER_GOOD[1] - MARGIN])
@@ -199,7 +199,9 @@ def gate_band(
         (hard_upper, 2.0 * np.pi),
     ):
         limit[loose] = value
-    edge_upper = min(EDGE_BAND[1], longest / size) - EDGE_MARGIN
+    # (never below the band's bottom: a plate narrower than about 0.6 x the panel size is the
+    # plate round's to meet, not this smoothing's)
+    edge_upper = max(min(EDGE_BAND[1], longest / size), EDGE_BAND[0] + 0.25) - EDGE_MARGIN
     return GateBand(lower, upper, metric, hard_lower, hard_upper, edge_upper=edge_upper)
 
 

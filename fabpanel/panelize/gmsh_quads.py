@@ -21,7 +21,8 @@ OUT holds ``nodes`` (q, 2), ``quads`` (r, 4) 0-based, ``on_curve`` (q,) bool (no
 boundary curves), ``factor`` (the chosen k), ``median`` (the surface-equivalent median edge),
 ``score`` and ``meshes`` (how many were made); and up to ``FINER_MESHES`` meshes with more
 quads (``finer_nodes``, ``finer_quads``, ``finer_on_curve`` concatenated, ``finer_node_counts``
-and ``finer_quad_counts`` per mesh, ``finer_factors``), fewest quads first.
+and ``finer_quad_counts`` per mesh, ``finer_factors``, ``finer_scores``), fewest quads
+first.
 """
 
 from __future__ import annotations
@@ -296,7 +297,8 @@ def main(source: str, target: str) -> None:
         # the best score; among equals the factor nearest the calibrated one
         factor = max(meshed, key=lambda f: (meshed[f][0], -abs(f - calibrated)))
         score, median, (nodes, quads, on_curve) = meshed[factor]
-        finer = [meshed[f][2] for f in _finer_factors(meshed, len(quads))]
+        finer_factors = _finer_factors(meshed, len(quads))
+        finer = [meshed[f][2] for f in finer_factors]
         np.savez(
             target,
             nodes=nodes,
@@ -307,7 +309,8 @@ def main(source: str, target: str) -> None:
             finer_quads=np.concatenate([m[1] for m in finer] or [np.zeros((0, 4), np.int64)]),
             finer_quad_counts=np.array([len(m[1]) for m in finer], dtype=np.int64),
             finer_on_curve=np.concatenate([m[2] for m in finer] or [np.zeros(0, bool)]),
-            finer_factors=np.array(_finer_factors(meshed, len(quads)), dtype=float),
+            finer_factors=np.array(finer_factors, dtype=float),
+            finer_scores=np.array([meshed[f][0] for f in finer_factors], dtype=float),
             factor=factor,
             median=median,
             score=score,

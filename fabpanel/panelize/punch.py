@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-#: quads whose centre lies within this many opening diameters of the opening's centre are
-#: tried; the one whose corners move least onto the opening's is punched
+#: quads whose centre lies within this many opening diameters (or quad diagonals, where
+#: longer) of the opening's centre are tried; the one whose corners move least is punched
 SEARCH_DIAMETERS = 1.5
 
 
@@ -41,6 +41,8 @@ def punched(
     order; ``fixed`` (q,) bool: nodes that must stay (singular points). Raises
     :class:`PunchFailed` where an opening finds no quad whose nodes are all free."""
     nodes, on_curve = nodes.copy(), on_curve.copy()
+    if any(np.shape(corners) != (4, 2) for corners in openings):
+        raise PunchFailed("a punched opening needs exactly four corners")
     taken = np.zeros(len(quads), dtype=bool)
     busy = on_curve | fixed
     for corners in openings:
@@ -64,8 +66,11 @@ def _best_quad(
     among the free quads near the opening, the least summed squared movement over the four
     cyclic matchings that keep the turning sense."""
     centre = corners.mean(axis=0)
-    reach = SEARCH_DIAMETERS * 2.0 * np.linalg.norm(corners - centre, axis=1).max()
-    near = np.linalg.norm(nodes[quads].mean(axis=1) - centre, axis=1) <= reach
+    centres = nodes[quads].mean(axis=1)
+    # at least a quad's size: an opening smaller than a quad may sit on a node of the mesh
+    diameter = 2.0 * np.linalg.norm(corners - centre, axis=1).max()
+    across = np.median(np.linalg.norm(nodes[quads[:, 2]] - nodes[quads[:, 0]], axis=1))
+    near = np.linalg.norm(centres - centre, axis=1) <= SEARCH_DIAMETERS * max(diameter, across)
     candidates = np.flatnonzero(near & ~taken & ~busy[quads].any(axis=1))
     if not len(candidates):
         raise PunchFailed(f"no free quad near the small opening at {centre.round(1)}")
