@@ -138,14 +138,17 @@ def test_wide_roundings_and_rounded_ends_stay_smooth():
     assert not found.corners[0].any()
 
 
-def _plate_with_openings(openings: list[tuple[float, float, float]]) -> Surface:
-    """A planar 12 x 8 m plate (mm) with round openings (x, y, radius), meshed by Delaunay."""
+def _plate_with_openings(
+    openings: list[tuple[float, float, float]], step: float = 150.0
+) -> Surface:
+    """A planar 12 x 8 m plate (mm) with round openings (x, y, radius) sampled about every
+    ``step``, meshed by Delaunay."""
     from scipy.spatial import Delaunay
 
     outer = _resampled(np.array([[0, 0], [12000, 0], [12000, 8000], [0, 8000]], float), 200.0)
     rings = []
     for x, y, r in openings:
-        count = max(16, int(2 * np.pi * r / 150.0))
+        count = max(16, int(2 * np.pi * r / step))
         t = np.linspace(0, 2 * np.pi, count, endpoint=False)[::-1]  # clockwise: a hole
         rings.append(np.column_stack([x + r * np.cos(t), y + r * np.sin(t)]))
     grid = np.array([(x, y) for x in range(100, 12000, 250) for y in range(100, 8000, 250)], float)
@@ -234,3 +237,40 @@ def test_a_small_rectangular_opening_keeps_its_four_corners():
     surface = Surface(vertices, np.zeros((0, 3), dtype=int), loops, Path("o.obj"), "obj", "mm")
     found = outline_corners(surface, points, 30.0, 300.0, panel_size=1000.0)
     assert small_openings(found, surface, points, 1000.0) is None
+
+
+def test_a_round_hole_that_turns_like_a_corner_within_merge_is_still_a_small_opening():
+    from fabpanel.panelize.corners import small_openings
+
+    # a 1 m round hole in 100 mm steps turns 35° within the 0.3 m merge: "corners" by the
+    # outline's rule, so it was neither smooth nor four-cornered and kept its ring
+    surface = _plate_with_openings([(4000.0, 4000.0, 500.0)], step=100.0)
+    flat = surface.vertices[:, :2]
+    found = outline_corners(surface, flat, 30.0, 300.0, panel_size=1000.0)
+    assert found.corners[1].any()
+    small = small_openings(found, surface, flat, 1000.0)
+    assert small is not None and small.indices == (1,)
+    square = flat[small.squared.loops[1]]
+    sides = np.linalg.norm(np.roll(square, -1, axis=0) - square, axis=1)
+    np.testing.assert_allclose(sides, 500.0 * np.sqrt(2), rtol=0.12)
+
+
+def test_a_slot_gets_its_corners_where_its_straight_sides_meet_its_round_ends():
+    from fabpanel.panelize.corners import _oblong_corners
+
+    # a 1.1 x 0.5 m slot (round ends of 0.25 m) turned 15°, sampled every ~50 mm
+    t = np.linspace(-np.pi / 2, np.pi / 2, 16)
+    right = np.column_stack([300.0 + 250.0 * np.cos(t), 250.0 * np.sin(t)])
+    top = np.column_stack([np.linspace(250.0, -250.0, 11), np.full(11, 250.0)])
+    slot = np.vstack([right, top, -right, -top])
+    turn = np.radians(15.0)
+    rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    picked = _oblong_corners(slot @ rotation.T)
+    assert picked is not None and len(np.unique(picked)) == 4
+    local = slot[picked]
+    # two on each round end (beyond the straight sides), one either side of the axis
+    assert np.all(np.abs(local[:, 0]) > 300.0) and np.all(np.abs(local[:, 1]) > 100.0)
+    assert sorted(np.sign(local[:, 0]) * np.sign(local[:, 1])) == [-1, -1, 1, 1]
+    # a round hole is not oblong: its four are set to the cross field instead
+    t = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    assert _oblong_corners(np.column_stack([np.cos(t), np.sin(t)]) * 500.0) is None

@@ -53,6 +53,9 @@ FACET_TURN = 5.0
 SMALL_OPENING = 5.0
 #: ... unless shorter than this: four sides of the gates' shortest edge (0.3 x panel size)
 SMALLEST_OPENING = 1.2
+#: a small opening without four corners whose smallest enclosing rectangle is this much
+#: longer than wide (a slot) gets its four corners at the rectangle's (:func:`_oblong_corners`)
+OBLONG = 1.3
 #: a rounding that turns more than this (degrees) within one panel size of arc is one corner
 ROUNDING_TURN = 60.0
 #: ... unless it turns more than this within two panel sizes (a rounded end, not a corner)
@@ -277,9 +280,12 @@ def small_openings(
     loops, corners = list(outline.loops), list(outline.corners)
     mesher_loops, mesher_corners = list(outline.loops), list(outline.corners)
     for index, (loop, corner, _) in four.items():
-        if not len(corner):  # smooth: four vertices a quarter round apart, set to the field
+        if not len(corner):  # rounded: four vertices, at an oblong's ends or set to the field
             corner = np.zeros(len(loop), dtype=bool)
-            corner[_square_corners(flat[loop], _field_angle_at(surface.faces, theta, loop))] = True
+            oblong = _oblong_corners(flat[loop])
+            if oblong is None:
+                oblong = _square_corners(flat[loop], _field_angle_at(surface.faces, theta, loop))
+            corner[oblong] = True
         loops[index], corners[index] = loop, corner
         mesher_loops[index] = loop[corner]
         mesher_corners[index] = np.ones(4, dtype=bool)
@@ -317,8 +323,9 @@ def _four_corners_of_small(
             continue
         if perimeter < SMALLEST_OPENING * panel_size:
             continue  # its four panel sides would be shorter than the gates' shortest edge
+        rounded = (loop, np.zeros(0, dtype=bool), np.zeros(0, int))
         if not outline.corners[index].any():
-            found[index] = (outline.loops[index], np.zeros(0, dtype=bool), np.zeros(0, int))
+            found[index] = rounded
             continue
         turning = turning_angles(flat[loop])
         arc = _arc_lengths(surface.vertices[loop])
@@ -326,7 +333,32 @@ def _four_corners_of_small(
         if int(corner.sum()) == 4:
             cut = loop[_cut_of(corner, dropped, turning, arc, 2 * outline.merge)]
             found[index] = (loop[~dropped], corner[~dropped], cut)
+        elif np.abs(turning).max() <= outline.corner_angle:
+            # no vertex turns like a corner: its "corners" are a tight round's turning within
+            # ``merge`` (a 1 m round hole sampled at 0.15 m turns 34° within 0.3 m) or a slot's
+            # round ends; its four are chosen like a smooth opening's
+            found[index] = rounded
     return found
+
+
+def _oblong_corners(points: np.ndarray) -> np.ndarray | None:
+    """Four distinct vertex indices of a closed flat loop nearest the corners of its smallest
+    enclosing rectangle, where that is oblong (sides differing by more than ``OBLONG``): a
+    slot's four are where its straight sides meet its round ends, so the panels along it
+    run with it. None for a loop about as wide as long (its rectangle's turn is arbitrary)."""
+    from shapely.geometry import Polygon
+
+    rectangle = Polygon(points).minimum_rotated_rectangle
+    if rectangle.geom_type != "Polygon":
+        return None
+    box = np.asarray(rectangle.exterior.coords)[:4]
+    sides = np.linalg.norm(np.roll(box, -1, axis=0) - box, axis=1)
+    if sides.max() < OBLONG * sides.min():
+        return None
+    nearest = np.argmin(np.linalg.norm(points[None, :, :] - box[:, None, :], axis=2), axis=1)
+    if len(np.unique(nearest)) < 4:
+        return None
+    return np.sort(nearest)
 
 
 def _field_angle_at(faces: np.ndarray, theta: np.ndarray, loop: np.ndarray) -> float:

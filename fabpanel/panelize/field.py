@@ -134,6 +134,7 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     min_width = min_panel_width(job)
     best: _Candidate | None = None
     punched_made = False
+    scores: dict[str, float] = {}
     for way, kept, mesher, punches in _ways_with_small_openings(outline, surface, flat, job):
         if best is not None and (
             meets_every_gate(best.measures, min_width, tips_apart=True)
@@ -160,6 +161,7 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
             continue
         punched_made |= way == "punched"
         measures = gate_measures(_layout(vertices, quads), surface, domain.target)
+        scores[way] = round(layout_score(measures, min_width), 4)
         if best is None or layout_score(measures, min_width) > layout_score(
             best.measures, min_width
         ):
@@ -168,6 +170,7 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
             outline = kept
     assert best is not None
     vertices, quads, info = best.vertices, best.quads, best.info
+    info["small_openings_scores"] = scores  # each way made, by the gates' score
     layout = _layout(vertices, _orient_outwards(vertices, quads, query))
     loops3d = [surface.vertices[loop] for loop in surface.boundary_loops]
     metrics, found = layout_metrics(layout, query, settings.panel_size, job.cutting, loops3d)
@@ -601,7 +604,10 @@ def _cut_corner_issues(surface: Surface, outline: OutlineCorners) -> tuple[Issue
             f"rounding (within 0.6 x panel_size), at {where}{more} mm; each is taken as one "
             f"sharp corner of the layout, so the sheets do not follow the facets or the "
             f"rounding exactly (boundary_deviation_mm, after the develop stage, shows by how "
-            f"much); if the corner is meant sharp, give the mesh a vertex at it",
+            f"much); if the corner is meant sharp, give the mesh a vertex at it; a rounding "
+            f"this tight cannot be followed by the corner of a panel, whose two sides meet in "
+            f"its two rib planes: round it at 0.6 x panel_size or more, or trim the corner "
+            f"after",
         ),
     )
 
