@@ -230,8 +230,8 @@ def _fitted_layout(
     topology settings where the first fails, ``TOPOLOGIES``); while a panel misses the plate,
     made again with smaller panels everywhere (module docstring, step 4). A finer mesh of
     gmsh's that fits at the size before (:func:`_placed_mesh`) is kept beside one more round's
-    result, and the better scoring layout taken (on hypar_hole at 1.2 m: 42 panels at the
-    asked size against 58 and 62 after one and two rounds). Raises :class:`.punch.PunchFailed`
+    result, and the better scoring layout taken (hypar_hole at 1.2 m, its opening meshed as a
+    loop: 42 panels at the asked size against 58 and 62 after one and two rounds). Raises :class:`.punch.PunchFailed`
     where the first mesh has a small opening no quad can be punched for; where a later one
     has, the rounds stop there."""
     size = job.panelize.panel_size
