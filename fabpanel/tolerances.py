@@ -50,6 +50,11 @@ class Tolerances:
     #: below this bending radius a sheet is press-formed instead of rolled (3-10 mm mild steel
     #: on a plate roll with about 150 mm rolls)
     press_forming_radius: float = 300.0
+    #: degrees: a rib plane within this angle of its sheet lies nearly flat instead of standing
+    #: between the sheets (the build reports it); a boundary side whose design edge curves in
+    #: the sheet's own plane so much that a planar rib along it would do so cuts the chord
+    #: instead (develop)
+    rib_tangent_deg: float = 30.0
 
 
 TOLERANCES = Tolerances()

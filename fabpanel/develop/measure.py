@@ -112,8 +112,10 @@ def classify_and_measure(
         circumradii(samples.transpose(0, 2, 1, 3)).reshape(m, -1).min(axis=1),
     )
     centres = cell_centres(samples).reshape(-1, 3)
-    _, _, centre_dist = query.closest(centres)
-    _, _, sample_dist = query.closest(samples.reshape(-1, 3))
+    # continued over openings: a side cutting the chord across a rim is measured against the
+    # surface it continues, not against the rim (that is the boundary deviation)
+    _, _, centre_dist = query.closest_continued(centres)
+    _, _, sample_dist = query.closest_continued(samples.reshape(-1, 3))
     deviation = np.maximum(
         centre_dist.reshape(m, -1).max(axis=1), sample_dist.reshape(m, -1).max(axis=1)
     )

@@ -9,14 +9,17 @@ hold identical side samples and normals.
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..data import DevelopedPanels, PanelLayout, Surface
+from ..errors import Issue
 from ..geom.quads import bilinear_grid, coons_patch, resample_polylines
 from ..job import Job
 from ..panelize.boundary import boundary_deviation
 from ..surface import SurfaceQuery
+from ..tolerances import TOLERANCES
 from .measure import classify_and_measure
 from .sides import side_planes
 
@@ -75,8 +78,16 @@ def developed_panels(
         job,
     )
     metrics["method"] = method
-    metrics["boundary_deviation_mm"] = boundary_deviation(layout, samples, query.surface)
+    chords = boundary_chords(layout, query, samples.shape[1])
+    metrics["boundary_deviation_mm"] = boundary_deviation(
+        layout, samples, query.surface, _chord_sides(layout, chords)
+    )
+    metrics["boundary_chords"] = {
+        "sides": len(chords),
+        "offset_mm_max": round(max((c.offset for c in chords.values()), default=0.0), 1),
+    }
     metrics.update(extra_metrics or {})
+    issues = tuple(issues) + _chord_issues(layout, chords)
     log.info("develop (%s): %s", method, {c: classes.count(c) for c in set(classes)})
     return DevelopedPanels(
         layout=layout,
@@ -93,6 +104,44 @@ def developed_panels(
     )
 
 
+def side_edges(layout: PanelLayout) -> np.ndarray:
+    """(m, 4) int: the ``layout.edges`` row of every panel side."""
+    lookup = {(int(a), int(b)): i for i, (a, b) in enumerate(layout.edges)}
+    starts, ends = layout.quads, np.roll(layout.quads, -1, axis=1)
+    low, high = np.minimum(starts, ends), np.maximum(starts, ends)
+    return np.array(
+        [lookup[(int(a), int(b))] for a, b in zip(low.ravel(), high.ravel())], dtype=np.int64
+    ).reshape(layout.quads.shape)
+
+
+def _chord_sides(layout: PanelLayout, chords: dict[int, BoundaryChord]) -> np.ndarray:
+    """(m, 4) bool: the panel sides that cut the chord across the design boundary."""
+    return np.isin(side_edges(layout), list(chords))
+
+
+def _chord_issues(layout: PanelLayout, chords: dict[int, BoundaryChord]) -> tuple[Issue, ...]:
+    """A warning for every panel side that cuts the chord across the design boundary."""
+    if not chords:
+        return ()
+    edges = side_edges(layout)
+    found = []
+    for panel, side in zip(*np.nonzero(np.isin(edges, list(chords)))):
+        chord, pid = chords[int(edges[panel, side])], layout.panel_ids[panel]
+        found.append(
+            Issue(
+                "boundary-chord",
+                f"panel {pid}: side {side} cuts straight across the design boundary, up to "
+                f"{chord.offset:.0f} mm from it: the boundary curves in the sheet's own plane "
+                f"there (radius about {chord.radius / 1000:.2f} m), and a planar rib following "
+                f"it would lean {chord.tilt:.0f} degrees from upright; a smaller panel size "
+                f"round it follows it closer",
+                pid,
+                "warning",
+            )
+        )
+    return tuple(found)
+
+
 def surface_sides(
     starts: np.ndarray, ends: np.ndarray, query: SurfaceQuery, count: int, levels: int = 6
 ) -> np.ndarray:
@@ -100,13 +149,14 @@ def surface_sides(
 
     Repeated midpoint subdivision with projection onto the surface (``levels`` times, so
     2**levels segments), then resampling to ``count`` points. The result depends only on the two
-    end points, so two panels sharing a side get the same curve.
+    end points, so two panels sharing a side get the same curve. Over an opening the curve runs
+    on the surface's tangent-plane continuation (a side cutting the chord across its rim).
     starts, ends : (e, 3). Returns (e, count, 3).
     """
     lines = np.stack([starts, ends], axis=1)
     for _ in range(levels):
         mids = 0.5 * (lines[:, :-1] + lines[:, 1:])
-        projected, _, _ = query.closest(mids.reshape(-1, 3))
+        projected, _, _ = query.closest_continued(mids.reshape(-1, 3))
         refined = np.empty((len(lines), 2 * lines.shape[1] - 1, 3))
         refined[:, 0::2], refined[:, 1::2] = lines, projected.reshape(mids.shape)
         lines = refined
@@ -130,7 +180,7 @@ def _surface_patches(
             curve = curves[lookup[(min(a, b), max(a, b))]]
             sides[panel, side] = curve if a < b else curve[::-1]
     patches = coons_patch(sides[:, 0], sides[:, 1], sides[:, 2], sides[:, 3])
-    points, normals, _ = query.closest(patches.reshape(-1, 3))
+    points, normals, _ = query.closest_continued(patches.reshape(-1, 3))
     points = points.reshape(m, k, k, 3)
     # boundary samples stay exactly on the traced sides (projection could move them by rounding)
     grid = patches
@@ -141,9 +191,95 @@ def _surface_patches(
 
 #: a layout vertex this close to the design boundary lies on it (mm)
 ON_BOUNDARY = 0.5
-#: a boundary stretch longer than this multiple of the traced side is not the side's (the two
+#: a boundary stretch longer than this multiple of the side's chord is not the side's (the two
 #: corners lie on the boundary, but the panel side cuts across, e.g. over a notch)
 STRETCH_LIMIT = 1.5
+
+
+@dataclass(frozen=True)
+class BoundaryChord:
+    """A boundary side that cuts the chord across a design edge curving in the sheet's plane.
+
+    edge : index into ``PanelLayout.edges``; offset : mm, how far the design edge bows away from
+    the upright plane through the chord; radius : mm, the edge's radius of curvature in the
+    sheet (from chord and bow); tilt : degrees, how far from upright a rib plane following the
+    design edge would lean."""
+
+    edge: int
+    offset: float
+    radius: float
+    tilt: float
+
+
+def _boundary_stretches(
+    layout: PanelLayout, query: SurfaceQuery, edges: np.ndarray, k: int
+) -> dict[int, np.ndarray]:
+    """The design boundary (k points) between the corners of every boundary side whose two
+    corners lie on it, keyed by the side's index into ``edges``; not where the boundary runs
+    much longer than the side (the side cuts across a notch)."""
+    from ..panelize.boundary import DesignBoundary
+
+    if not query.surface.boundary_loops:
+        return {}
+    neighbours = layout.side_neighbours
+    starts, ends = layout.quads, np.roll(layout.quads, -1, axis=1)
+    outer = np.unique(
+        np.sort(np.stack([starts[neighbours < 0], ends[neighbours < 0]], 1), 1), axis=0
+    )
+    if not len(outer):
+        return {}
+    boundary = DesignBoundary(query.surface)
+    _, distance, _, _ = boundary.locate(layout.vertices)
+    index = {(int(a), int(b)): i for i, (a, b) in enumerate(edges)}
+    stretches = {}
+    for a, b in outer:
+        if distance[a] > ON_BOUNDARY or distance[b] > ON_BOUNDARY:
+            continue
+        stretch = boundary.between(layout.vertices[a], layout.vertices[b], k)
+        if stretch is None:
+            continue
+        chord = float(np.linalg.norm(layout.vertices[b] - layout.vertices[a]))
+        length = float(np.linalg.norm(np.diff(stretch, axis=0), axis=1).sum())
+        if length <= STRETCH_LIMIT * max(chord, 1e-9):
+            stretches[index[(int(a), int(b))]] = stretch
+    return stretches
+
+
+def _flat_rib_chords(
+    stretches: dict[int, np.ndarray], query: SurfaceQuery
+) -> dict[int, BoundaryChord]:
+    """The stretches a planar rib cannot follow: they bow out of the upright plane through
+    their chord by more than the rib-edge tolerance, and the plane that holds them leans more
+    than ``90 - rib_tangent_deg`` degrees from upright at mid-side (a round opening or a tight
+    rounding in a flattish sheet: its plane is the sheet's own)."""
+    from ..geom.fitting import bestfit_planes
+
+    chords = {}
+    for e, stretch in stretches.items():
+        _, normals, _ = query.closest(stretch)
+        chord = stretch[-1] - stretch[0]
+        length = float(np.linalg.norm(chord))
+        upright = np.cross(chord, normals.mean(axis=0))
+        if length < 1e-9 or np.linalg.norm(upright) < 1e-12:
+            continue
+        upright /= np.linalg.norm(upright)
+        offset = float(np.abs((stretch - stretch[0]) @ upright).max())
+        if offset <= TOLERANCES.rib_edge:
+            continue
+        plane, _, _ = bestfit_planes(stretch[None])
+        tilt = float(np.degrees(np.arcsin(min(1.0, abs(normals[len(stretch) // 2] @ plane[0])))))
+        if tilt > 90.0 - TOLERANCES.rib_tangent_deg:
+            radius = (length**2 / 4 + offset**2) / (2 * offset)
+            chords[e] = BoundaryChord(e, offset, radius, tilt)
+    return chords
+
+
+def boundary_chords(layout: PanelLayout, query: SurfaceQuery, k: int) -> dict[int, BoundaryChord]:
+    """The boundary sides of ``layout`` that cut the chord across the design boundary (see
+    :func:`_flat_rib_chords`), keyed by their index into ``layout.edges``."""
+    if layout.parameters is not None:
+        return {}
+    return _flat_rib_chords(_boundary_stretches(layout, query, layout.edges, k), query)
 
 
 def _follow_design_boundary(
@@ -151,31 +287,13 @@ def _follow_design_boundary(
 ) -> None:
     """Replace (in place) the traced curve of each boundary side whose two corners lie on the
     design boundary by the design boundary between them: the panel then follows the design's
-    outline, rounded corners included, instead of cutting the chord across."""
-    from ..panelize.boundary import DesignBoundary
-
-    if not query.surface.boundary_loops:
-        return
-    neighbours = layout.side_neighbours
-    starts, ends = layout.quads, np.roll(layout.quads, -1, axis=1)
-    outer = np.unique(
-        np.sort(np.stack([starts[neighbours < 0], ends[neighbours < 0]], 1), 1), axis=0
-    )
-    if not len(outer):
-        return
-    boundary = DesignBoundary(query.surface)
-    _, distance, _, _ = boundary.locate(layout.vertices)
-    index = {(int(a), int(b)): i for i, (a, b) in enumerate(edges)}
-    k = curves.shape[1]
-    for a, b in outer:
-        if distance[a] > ON_BOUNDARY or distance[b] > ON_BOUNDARY:
-            continue
-        stretch = boundary.between(layout.vertices[a], layout.vertices[b], k)
-        e = index[(int(a), int(b))]
-        if stretch is None:
-            continue
-        traced = np.linalg.norm(np.diff(curves[e], axis=0), axis=1).sum()
-        if np.linalg.norm(np.diff(stretch, axis=0), axis=1).sum() <= STRETCH_LIMIT * traced:
+    outline, rounded corners included, instead of cutting the chord across. Not where a planar
+    rib along it would lie nearly flat in the sheet: that side keeps its traced chord, which
+    runs over the opening on the surface's tangent-plane continuation."""
+    stretches = _boundary_stretches(layout, query, edges, curves.shape[1])
+    chords = _flat_rib_chords(stretches, query)
+    for e, stretch in stretches.items():
+        if e not in chords:
             curves[e] = stretch
 
 

@@ -54,8 +54,6 @@ from .trim import TrimmedFace, side_curve, side_rows, trimmed_face
 
 #: dense samples of sheet fibre grids per sample interval of the developed grid
 GRID_REFINE = 4
-#: a rib plane within this many degrees of the sheet is reported: the rib lies nearly flat
-RIB_TANGENT_DEG = 30.0
 #: corners opening wider than this get no stiffener (degrees): the two ribs are nearly one line
 MAX_STIFFENED_ANGLE = 150.0
 
@@ -353,7 +351,7 @@ def _plates(
         name = f"{pid}-RIB-{side}"
         normal = side_rows(payload.normals)[side][k_mid]
         tilt = float(np.degrees(np.arcsin(min(1.0, abs(normal @ planes[side, :3])))))
-        if tilt > 90.0 - RIB_TANGENT_DEG:
+        if tilt > 90.0 - TOLERANCES.rib_tangent_deg:
             findings.append(
                 (
                     "rib-plane-tangent",

@@ -143,6 +143,23 @@ class DesignBoundary:
         points[0], points[-1] = start, end
         return points
 
+    def on_stretches(self, pairs: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """(n,) bool: which of ``points (n, 3)`` (on the boundary) lie on the boundary between
+        the two points of any of ``pairs (p, 2, 3)``, the shorter way round their loop."""
+        inside = np.zeros(len(points), dtype=bool)
+        if not len(pairs) or not len(points):
+            return inside
+        _, _, loop, s = self.locate(points)
+        _, _, ends_loop, ends_s = self.locate(pairs.reshape(-1, 3))
+        for (la, lb), (sa, sb) in zip(ends_loop.reshape(-1, 2), ends_s.reshape(-1, 2)):
+            if la != lb:
+                continue
+            total = self.loop_length[la]
+            forward = (sb - sa) % total
+            start, length = (sa, forward) if forward <= total - forward else (sb, total - forward)
+            inside |= (loop == la) & ((s - start) % total <= length)
+        return inside
+
     def at(self, loop: int, s: np.ndarray) -> np.ndarray:
         """Points of one loop at arc lengths ``s`` (in [0, loop length))."""
         first, last = self.first_segment[loop], self.first_segment[loop + 1]
@@ -159,16 +176,19 @@ class DesignBoundary:
 _DENSITY = 8
 
 
-def boundary_sides_as_curves(layout: PanelLayout, samples: np.ndarray) -> np.ndarray:
+def boundary_sides_as_curves(
+    layout: PanelLayout, samples: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """(b, (k - 1) * 8 + 1, 3): the sample rows of every panel side on the layout's boundary,
-    interpolated by a cubic spline (chord-length parameters), as the sheets' edges run."""
+    interpolated by a cubic spline (chord-length parameters), as the sheets' edges run; and
+    (b, 2) int, the panel and side of each."""
     from scipy.interpolate import CubicSpline
 
     from ..develop.optimise import side_index
 
     k = samples.shape[1]
     neighbours = layout.side_neighbours
-    curves = []
+    curves, sides = [], []
     for panel, side in zip(*np.nonzero(neighbours < 0)):
         rows, cols = side_index(k, int(side))
         points = samples[panel][rows, cols]
@@ -177,26 +197,49 @@ def boundary_sides_as_curves(layout: PanelLayout, samples: np.ndarray) -> np.nda
             continue
         fine = np.linspace(0.0, chord[-1], (k - 1) * _DENSITY + 1)
         curves.append(CubicSpline(chord, points, axis=0)(fine))
-    return np.asarray(curves).reshape(-1, (k - 1) * _DENSITY + 1, 3)
+        sides.append((panel, side))
+    return (
+        np.asarray(curves).reshape(-1, (k - 1) * _DENSITY + 1, 3),
+        np.asarray(sides, dtype=np.int64).reshape(-1, 2),
+    )
 
 
-def boundary_deviation(layout: PanelLayout, samples: np.ndarray, surface: Surface) -> dict:
+def boundary_deviation(
+    layout: PanelLayout,
+    samples: np.ndarray,
+    surface: Surface,
+    chords: np.ndarray | None = None,
+) -> dict:
     """How far the panels' boundary sides lie from the design boundary, mm, both ways.
 
     ``design_to_panels``: largest distance from a design boundary vertex to the nearest
     boundary side (interpolated through its samples); ``panels_to_design``: largest distance
     from a point of those sides to the design boundary. Empty for closed surfaces.
+    ``chords`` (m, 4) bool marks the sides that cut the chord across the design boundary on
+    purpose (a planar rib cannot follow it there): ``followed`` then gives both figures without
+    them and the stretches of the design boundary they cut across.
     """
     from ..geom.polygon import point_segment_distances
 
-    curves = boundary_sides_as_curves(layout, samples)
+    curves, sides = boundary_sides_as_curves(layout, samples)
     if not surface.boundary_loops or not len(curves):
         return {}
     design = DesignBoundary(surface)
+    n = curves.shape[1] - 1
     starts, ends = curves[:, :-1].reshape(-1, 3), curves[:, 1:].reshape(-1, 3)
     to_panels = point_segment_distances(design.starts, starts, ends)
     _, to_design, _, _ = design.locate(curves.reshape(-1, 3))
-    return {
+    result: dict = {
         "design_to_panels": round(float(to_panels.max()), 3),
         "panels_to_design": round(float(to_design.max()), 3),
     }
+    if chords is not None and chords.any():
+        chorded = chords[sides[:, 0], sides[:, 1]]
+        ends = curves[chorded][:, [0, -1]]
+        followed_design = ~design.on_stretches(ends, design.starts)
+        followed_panels = np.repeat(~chorded, n + 1)
+        result["followed"] = {
+            "design_to_panels": round(float(to_panels[followed_design].max(initial=0.0)), 3),
+            "panels_to_design": round(float(to_design[followed_panels].max(initial=0.0)), 3),
+        }
+    return result

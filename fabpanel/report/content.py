@@ -119,6 +119,7 @@ def verdicts(result) -> Verdicts:
                         f"{strained} sheet(s) unroll above the strain tolerance"
                     ),
                     f"deviation from the design: {cell(developed['deviation_mm'], 'x_mm')}",
+                    *_boundary_lines(developed),
                 ),
             )
         )
@@ -406,3 +407,22 @@ def issue_blocks(result) -> list[Block]:
         Table(("severity", "code", "count"), summary_rows),
         Table(("severity", "code", "item", "message"), rows, sortable=True),
     ]
+
+
+def _boundary_lines(developed: dict) -> tuple[str, ...]:
+    """The design boundary as the sheets follow it, and the sides that cut its chord."""
+    deviation = developed.get("boundary_deviation_mm") or {}
+    if not deviation:
+        return ()
+    chords = developed.get("boundary_chords") or {}
+    followed = deviation.get("followed", deviation)
+    worst = max(followed["design_to_panels"], followed["panels_to_design"])
+    lines = [f"sheets within {number(worst)} mm of the design boundary"]
+    if chords.get("sides"):
+        lines[0] += " where they follow it"
+        lines.append(
+            f"{chords['sides']} boundary side(s) cut the chord across it, up to "
+            f"{number(chords['offset_mm_max'])} mm inside: a planar rib cannot follow a "
+            f"boundary curving in the sheet's plane (boundary-chord)"
+        )
+    return tuple(lines)

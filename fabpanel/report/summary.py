@@ -40,6 +40,9 @@ def summarise(result, timings: dict[str, float], structure: dict) -> dict:
             "unroll_strain_max": m["unroll_strain"]["max"],
             "deviation_mm": m["deviation_mm"],
             "bending_radius_mm_min": m["bending_radius_mm_min"],
+            # against the design boundary, and the sides that cut its chord (boundary-chord)
+            "boundary_deviation_mm": m.get("boundary_deviation_mm"),
+            "boundary_chords": m.get("boundary_chords"),
         }
     if result.model is not None:
         parts = result.model.parts

@@ -236,6 +236,22 @@ class SurfaceQuery:
             return foot, self.mesh.normals_at(foot, tri), dist
         return self._closest_exact(points)
 
+    def closest_continued(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`closest` on the surface continued beyond its boundary by the tangent plane at
+        the nearest boundary point: a point over an opening lands on that plane, not on the
+        opening's rim. Returns ``points (n, 3)``, ``normals (n, 3)``, ``distances (n,)`` mm.
+
+        A point whose closest-point offset runs more along the surface than across it lies
+        beyond the boundary (inside the surface the offset is along the normal)."""
+        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        foot, normals, distance = self.closest(points)
+        offset = points - foot
+        across = (offset * normals).sum(axis=1)
+        along = offset - across[:, None] * normals
+        beyond = np.linalg.norm(along, axis=1) > np.abs(across)
+        foot = np.where(beyond[:, None], points - across[:, None] * normals, foot)
+        return foot, normals, np.where(beyond, np.abs(across), distance)
+
     def uv_bounds(self) -> tuple[float, float, float, float]:
         """``(umin, umax, vmin, vmax)`` of the single B-rep face's parameter domain."""
         face = self._single_face("uv_bounds")
