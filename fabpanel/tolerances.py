@@ -51,9 +51,9 @@ class Tolerances:
     #: on a plate roll with about 150 mm rolls)
     press_forming_radius: float = 300.0
     #: degrees: a rib plane within this angle of its sheet lies nearly flat instead of standing
-    #: between the sheets (the build reports it); a boundary side whose design edge curves in
-    #: the sheet's own plane so much that a planar rib along it would do so cuts the chord
-    #: instead (develop)
+    #: between the sheets (the build reports it); a boundary side whose design edge would need
+    #: a rib leaning that far, or further than ``trim_slide`` lets the sheets reach, cuts the
+    #: chord instead (develop, ``largest_rib_lean``)
     rib_tangent_deg: float = 30.0
 
 

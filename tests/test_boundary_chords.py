@@ -16,11 +16,12 @@ import numpy as np
 import pytest
 from scipy.spatial import Delaunay
 
-from fabpanel import Job, build
+from fabpanel import Job, build, panelize
 from fabpanel.data import PanelLayout, Surface
 from fabpanel.develop import develop
 from fabpanel.develop.optimise import side_index
-from fabpanel.develop.project import boundary_chords
+from fabpanel.develop.project import boundary_chords, sample_panels, side_edges
+from fabpanel.panelize.boundary import boundary_deviation
 from fabpanel.surface import SurfaceQuery
 
 HALF, HOLE, RIM = 1500.0, 450.0, 96
@@ -131,6 +132,47 @@ def _flat_annulus():
     )
 
 
+def _cap(rim_angle_deg: float, radius: float = 5000.0) -> Surface:
+    """A spherical cap (mm) whose horizontal rim the sphere meets ``rim_angle_deg`` from level."""
+    rim = radius * np.sin(np.radians(rim_angle_deg))
+    t = np.linspace(0, 2 * np.pi, 120, endpoint=False)
+    ring = rim * np.column_stack([np.cos(t), np.sin(t)])
+    xs = np.arange(-rim, rim, 250.0)
+    grid = np.array([(x, y) for x in xs for y in xs])
+    grid = grid[np.linalg.norm(grid, axis=1) < rim - 125.0]
+    points = np.vstack([ring, grid])
+    tri = Delaunay(points).simplices
+    a, b, c = (points[tri[:, i]] for i in range(3))
+    cross = (b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0]
+    tri[cross < 0] = tri[cross < 0][:, [0, 2, 1]]
+    height = np.sqrt(radius**2 - (points**2).sum(axis=1))
+    loops = (np.arange(len(ring)),)
+    return Surface(np.column_stack([points, height]), tri, loops, Path("cap.obj"), "obj", "mm")
+
+
+@pytest.mark.parametrize(("rim_angle", "chorded"), [(60.0, False), (30.0, True)])
+def test_a_rim_is_followed_where_its_rib_leans_45_degrees_or_less(rim_angle, chorded):
+    # a ring rib in the rim's level plane leans 90 - rim_angle degrees from square to the sheet
+    surface = _cap(rim_angle)
+    job = Job.from_dict(
+        {"input": {"path": "cap.obj", "units": "mm"}, "panelize": {"panel_size": "1 m"}}
+    )
+    query = SurfaceQuery(surface)
+    layout = panelize(surface, job, query)
+    samples, _ = sample_panels(layout, query, 9)
+    chords = boundary_chords(layout, query, 9)
+    sides = np.isin(side_edges(layout), list(chords))
+    deviation = boundary_deviation(layout, samples, surface, sides)
+    boundary = int((layout.side_neighbours < 0).sum())
+    if chorded:
+        assert len(chords) == boundary
+        assert all(c.lean == pytest.approx(60.0, abs=3.0) for c in chords.values())
+        assert deviation["design_to_panels"] > 10.0
+    else:
+        assert not chords
+        assert max(deviation.values()) < 1.0
+
+
 def test_the_four_sides_along_a_round_opening_in_a_flat_sheet_cut_their_chords(plate):
     surface, layout, _ = plate
     chords = boundary_chords(layout, SurfaceQuery(surface), 9)
@@ -138,7 +180,7 @@ def test_the_four_sides_along_a_round_opening_in_a_flat_sheet_cut_their_chords(p
     for chord in chords.values():
         assert chord.offset == pytest.approx(SAGITTA, abs=1.0)
         assert chord.radius == pytest.approx(HOLE, rel=0.01)
-        assert chord.tilt > 85.0  # the rim's plane is the sheet's
+        assert chord.lean > 85.0  # the rim's plane is the sheet's
 
 
 def test_chorded_sides_are_straight_upright_and_on_the_continued_surface(plate):
@@ -178,7 +220,7 @@ def test_chorded_sides_are_straight_upright_and_on_the_continued_surface(plate):
 def test_a_plate_round_a_round_opening_builds_with_upright_ribs(plate, method):
     surface, layout, job = plate
     developed = develop(layout, surface, job.replace(develop={"method": method}))
-    model = build(developed, job, jobs=1)
+    model = build(developed, job, jobs=2)
     codes = {i.code for i in model.issues}
     # following the rim, its four ribs lay flat and eight sheets could not be trimmed
     assert "rib-plane-tangent" not in codes and "sheet-not-trimmed" not in codes

@@ -146,22 +146,25 @@ def test_field_boundary_vertices_lie_on_the_design_outline(dish):
     assert np.abs(radii[on_inner] - 1200.0).max() < 0.5
 
 
-def test_developed_panels_follow_the_design_boundary_within_1_mm(dish):
+def test_developed_panels_follow_the_design_boundary_or_cut_its_chord(dish):
     surface, job, query, layout = dish
     samples, _ = sample_panels(layout, query, job.develop.samples)
-    # the outer rim, where the dish slopes 42 degrees, is followed; round the 2.4 m opening,
-    # where it slopes 10 degrees, a rib in the rim's plane would lie flat: chords there
+    # a ring rib in a rim's level plane leans 48 degrees from square where the dish slopes 42
+    # (the outer rim) and 80 where it slopes 10 (round the opening): beyond the 45 the build
+    # can trim the sheets to, so every side cuts its chord, the rims' arcs' sagittas deep
     chords = boundary_chords(layout, query, job.develop.samples)
+    assert len(chords) == int((layout.side_neighbours < 0).sum())
     sides = np.isin(side_edges(layout), list(chords))
-    rows = np.nonzero(sides)[0]
-    assert len(rows) >= 4
-    mids = samples[rows, 4, 4]
-    assert (np.linalg.norm(mids[:, :2], axis=1) < 2500.0).all()  # inner-ring panels only
     deviation = boundary_deviation(layout, samples, surface, sides)
-    assert deviation["followed"]["design_to_panels"] < 1.0
-    assert deviation["followed"]["panels_to_design"] < 1.0
     sagitta = max(c.offset for c in chords.values())
     assert deviation["design_to_panels"] == pytest.approx(sagitta, rel=0.05)
+    for e, chord in chords.items():
+        a, b = layout.vertices[layout.edges[e]]
+        rim = np.linalg.norm(a[:2])
+        half = 0.5 * np.linalg.norm(b[:2] - a[:2])
+        in_plan = rim - np.sqrt(rim**2 - half**2)  # the arc's sagitta over the chord, in plan
+        slope = np.arctan(1.5e-4 * rim)  # measured across the upright plane through the chord
+        assert chord.offset == pytest.approx(in_plan * np.cos(slope), rel=0.05, abs=0.5)
 
 
 def test_the_field_layout_is_deterministic(dish):

@@ -165,10 +165,12 @@ def test_global_keeps_a_cone_in_place(tmp_path):
     assert metrics["unroll_strain"]["max"] < 1e-5
     assert metrics["deviation_mm"]["mean"] < 1.5
     assert metrics["rib_plane_residual_mm_max"] < 0.5
-    # the parallels are planar curvature lines at a constant angle to their planes (the cone's
-    # 60 degree normals against horizontal arcs): a bevelled but untwisted rib
+    # the boundary parallels are planar curvature lines, but a rib in their level planes would
+    # lean 60 degrees from square (the cone's normals against horizontal arcs), beyond the 45
+    # the build can trim the sheets to: they cut their chords, and every rib stands square
+    assert metrics["boundary_chords"]["sides"] == 6
     assert metrics["rib_bevel_twist_deg_max"] < 0.5
-    assert 55.0 < metrics["rib_normal_angle_deg_max"] < 62.0
+    assert metrics["rib_normal_angle_deg_max"] < 1.0
 
 
 def test_global_makes_a_hypar_developable_closer_than_the_loft(tmp_path):

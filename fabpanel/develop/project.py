@@ -133,7 +133,8 @@ def _chord_issues(layout: PanelLayout, chords: dict[int, BoundaryChord]) -> tupl
                 f"panel {pid}: side {side} cuts straight across the design boundary, up to "
                 f"{chord.offset:.0f} mm from it: the boundary curves in the sheet's own plane "
                 f"there (radius about {chord.radius / 1000:.2f} m), and a planar rib following "
-                f"it would lean {chord.tilt:.0f} degrees from upright; a smaller panel size "
+                f"it would lean {chord.lean:.0f} degrees from square (at most "
+                f"{largest_rib_lean():.0f} can be built); a smaller panel size "
                 f"round it follows it closer",
                 pid,
                 "warning",
@@ -202,13 +203,13 @@ class BoundaryChord:
 
     edge : index into ``PanelLayout.edges``; offset : mm, how far the design edge bows away from
     the upright plane through the chord; radius : mm, the edge's radius of curvature in the
-    sheet (from chord and bow); tilt : degrees, how far from upright a rib plane following the
-    design edge would lean."""
+    sheet (from chord and bow); lean : degrees, how far from square to the sheet a rib plane
+    following the design edge would lean."""
 
     edge: int
     offset: float
     radius: float
-    tilt: float
+    lean: float
 
 
 def _boundary_stretches(
@@ -245,15 +246,26 @@ def _boundary_stretches(
     return stretches
 
 
+def largest_rib_lean() -> float:
+    """Degrees: the most a boundary rib may lean from square to its sheet and still be built.
+    Leaning ``a``, it meets the bottom sheet ``depth x tan(a)`` along the sheet from the top
+    sheet's edge, and the build slides a sheet edge at most ``trim_slide x depth`` to reach its
+    rib (45 degrees at the default 1.0); nor may it lie within ``rib_tangent_deg`` of the sheet."""
+    slide = float(np.degrees(np.arctan(TOLERANCES.trim_slide)))
+    return min(90.0 - TOLERANCES.rib_tangent_deg, slide)
+
+
 def _flat_rib_chords(
     stretches: dict[int, np.ndarray], query: SurfaceQuery
 ) -> dict[int, BoundaryChord]:
     """The stretches a planar rib cannot follow: they bow out of the upright plane through
     their chord by more than the rib-edge tolerance, and the plane that holds them leans more
-    than ``90 - rib_tangent_deg`` degrees from upright at mid-side (a round opening or a tight
-    rounding in a flattish sheet: its plane is the sheet's own)."""
+    than :func:`largest_rib_lean` from square to the sheet somewhere along them (a round
+    opening or a tight rounding in a flattish sheet, whose plane is the sheet's own, or an
+    edge arch the shell stands tangent to)."""
     from ..geom.fitting import bestfit_planes
 
+    limit = largest_rib_lean()
     chords = {}
     for e, stretch in stretches.items():
         _, normals, _ = query.closest(stretch)
@@ -267,10 +279,10 @@ def _flat_rib_chords(
         if offset <= TOLERANCES.rib_edge:
             continue
         plane, _, _ = bestfit_planes(stretch[None])
-        tilt = float(np.degrees(np.arcsin(min(1.0, abs(normals[len(stretch) // 2] @ plane[0])))))
-        if tilt > 90.0 - TOLERANCES.rib_tangent_deg:
+        lean = float(np.degrees(np.arcsin(min(1.0, np.abs(normals @ plane[0]).max()))))
+        if lean > limit:
             radius = (length**2 / 4 + offset**2) / (2 * offset)
-            chords[e] = BoundaryChord(e, offset, radius, tilt)
+            chords[e] = BoundaryChord(e, offset, radius, lean)
     return chords
 
 
