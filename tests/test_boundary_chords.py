@@ -228,3 +228,23 @@ def test_a_plate_round_a_round_opening_builds_with_upright_ribs(plate, method):
     assert rim <= {part.id for part in model.parts}
     if method == "project":
         assert not [i for i in model.issues if i.severity == "error"]
+
+
+def test_the_report_says_how_the_sheets_meet_the_design_boundary():
+    from fabpanel.report.content import _boundary_lines
+
+    deviation = {"design_to_panels": 132.0, "panels_to_design": 131.9}
+    some = {
+        "boundary_deviation_mm": {
+            **deviation,
+            "followed": {"design_to_panels": 0.04, "panels_to_design": 0.03},
+        },
+        "boundary_chords": {"sides": 4, "offset_mm_max": 131.8},
+        "boundary_sides": 12,
+    }
+    lines = _boundary_lines(some)
+    assert lines[0].startswith("sheets within 0.04 mm of the design boundary where they follow")
+    assert lines[1].startswith("4 boundary side(s) cut the chord across it, up to 131.8 mm")
+    every = {**some, "boundary_sides": 4}
+    every["boundary_deviation_mm"] = {**deviation, "followed": {}}
+    assert _boundary_lines(every)[0] == "no boundary side follows the design boundary"

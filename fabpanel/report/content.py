@@ -416,10 +416,12 @@ def _boundary_lines(developed: dict) -> tuple[str, ...]:
         return ()
     chords = developed.get("boundary_chords") or {}
     followed = deviation.get("followed", deviation)
-    worst = max(followed["design_to_panels"], followed["panels_to_design"])
+    worst = max(followed.get("design_to_panels", 0.0), followed.get("panels_to_design", 0.0))
     lines = [f"sheets within {number(worst)} mm of the design boundary"]
     if chords.get("sides"):
         lines[0] += " where they follow it"
+        if chords.get("sides") == developed.get("boundary_sides"):
+            lines[0] = "no boundary side follows the design boundary"
         lines.append(
             f"{chords['sides']} boundary side(s) cut the chord across it, up to "
             f"{number(chords['offset_mm_max'])} mm inside: a planar rib cannot follow a "

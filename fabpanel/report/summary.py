@@ -43,6 +43,7 @@ def summarise(result, timings: dict[str, float], structure: dict) -> dict:
             # against the design boundary, and the sides that cut its chord (boundary-chord)
             "boundary_deviation_mm": m.get("boundary_deviation_mm"),
             "boundary_chords": m.get("boundary_chords"),
+            "boundary_sides": int((result.developed.layout.side_neighbours < 0).sum()),
         }
     if result.model is not None:
         parts = result.model.parts
