@@ -147,6 +147,13 @@ class PanelLayout:
         return np.unique(np.sort(sides, axis=1), axis=0)
 
     @property
+    def side_edges(self) -> np.ndarray:
+        """(m, 4) int: the :attr:`edges` row of every panel side."""
+        sides = np.stack([self.quads, np.roll(self.quads, -1, axis=1)], axis=2).reshape(-1, 2)
+        _, inverse = np.unique(np.sort(sides, axis=1), axis=0, return_inverse=True)
+        return inverse.reshape(self.quads.shape)
+
+    @property
     def side_neighbours(self) -> np.ndarray:
         """(m, 4) int: the panel across each side, -1 on the boundary."""
         m = len(self.quads)

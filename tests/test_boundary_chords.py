@@ -20,7 +20,7 @@ from fabpanel import Job, build, panelize
 from fabpanel.data import PanelLayout, Surface
 from fabpanel.develop import develop
 from fabpanel.develop.optimise import side_index
-from fabpanel.develop.project import boundary_chords, sample_panels, side_edges
+from fabpanel.develop.project import sample_panels
 from fabpanel.panelize.boundary import boundary_deviation
 from fabpanel.surface import SurfaceQuery
 
@@ -159,9 +159,9 @@ def test_a_rim_is_followed_where_its_rib_leans_45_degrees_or_less(rim_angle, cho
     )
     query = SurfaceQuery(surface)
     layout = panelize(surface, job, query)
-    samples, _ = sample_panels(layout, query, 9)
-    chords = boundary_chords(layout, query, 9)
-    sides = np.isin(side_edges(layout), list(chords))
+    design = sample_panels(layout, query, 9)
+    samples, chords = design.samples, design.chords
+    sides = np.isin(layout.side_edges, list(chords))
     deviation = boundary_deviation(layout, samples, surface, sides)
     boundary = int((layout.side_neighbours < 0).sum())
     if chorded:
@@ -175,7 +175,7 @@ def test_a_rim_is_followed_where_its_rib_leans_45_degrees_or_less(rim_angle, cho
 
 def test_the_four_sides_along_a_round_opening_in_a_flat_sheet_cut_their_chords(plate):
     surface, layout, _ = plate
-    chords = boundary_chords(layout, SurfaceQuery(surface), 9)
+    chords = sample_panels(layout, SurfaceQuery(surface), 9).chords
     assert len(chords) == 4  # the outer sides run in upright planes and are followed
     for chord in chords.values():
         assert chord.offset == pytest.approx(SAGITTA, abs=1.0)
@@ -207,6 +207,11 @@ def test_chorded_sides_are_straight_upright_and_on_the_continued_surface(plate):
         layout.panel_ids[p] for p, _ in _rim_sides(layout)
     )
     assert "132 mm" in chord_issues[0].message and "0.45 m" in chord_issues[0].message
+    # the advice names a size: half the 636 mm chord, whose arc's sagitta is 34 mm
+    half = HOLE * np.sin(np.pi / 4)
+    assert f"about {half:.0f} mm" in chord_issues[0].message
+    assert f"{SAGITTA / 4:.0f} mm deep" in chord_issues[0].message
+    assert SAGITTA / 4 == pytest.approx(HOLE * (1 - np.cos(np.pi / 8)), rel=0.05)
     metrics = developed.metrics
     assert metrics["boundary_chords"]["sides"] == 4
     assert metrics["boundary_chords"]["offset_mm_max"] == pytest.approx(SAGITTA, abs=1.0)
@@ -226,8 +231,10 @@ def test_a_plate_round_a_round_opening_builds_with_upright_ribs(plate, method):
     assert "rib-plane-tangent" not in codes and "sheet-not-trimmed" not in codes
     rim = {f"{layout.panel_ids[p]}-RIB-{s}" for p, s in _rim_sides(layout)}
     assert rim <= {part.id for part in model.parts}
-    if method == "project":
-        assert not [i for i in model.issues if i.severity == "error"]
+    # with global: the ribs of the two panels that meet only at an opening's corner, each
+    # beside its upright chord, interpenetrated (2.6-3.7 cm3) while their planes leaned 6.8
+    # degrees about their nearly straight sides; square ribs share the corner's normal
+    assert not [i for i in model.issues if i.severity == "error"]
 
 
 def test_the_report_says_how_the_sheets_meet_the_design_boundary():

@@ -16,7 +16,7 @@ from scipy.spatial import Delaunay
 
 import fabpanel as fp
 from fabpanel.data import PanelLayout, Surface
-from fabpanel.develop.project import boundary_chords, sample_panels, side_edges
+from fabpanel.develop.project import sample_panels
 from fabpanel.geom.conformal import conformal_flattening
 from fabpanel.panelize.boundary import DesignBoundary, boundary_deviation, smooth_loop
 from fabpanel.panelize.gates import (
@@ -148,13 +148,14 @@ def test_field_boundary_vertices_lie_on_the_design_outline(dish):
 
 def test_developed_panels_follow_the_design_boundary_or_cut_its_chord(dish):
     surface, job, query, layout = dish
-    samples, _ = sample_panels(layout, query, job.develop.samples)
+    design = sample_panels(layout, query, job.develop.samples)
+    samples = design.samples
     # a ring rib in a rim's level plane leans 48 degrees from square where the dish slopes 42
     # (the outer rim) and 80 where it slopes 10 (round the opening): beyond the 45 the build
     # can trim the sheets to, so every side cuts its chord, the rims' arcs' sagittas deep
-    chords = boundary_chords(layout, query, job.develop.samples)
+    chords = design.chords
     assert len(chords) == int((layout.side_neighbours < 0).sum())
-    sides = np.isin(side_edges(layout), list(chords))
+    sides = np.isin(layout.side_edges, list(chords))
     deviation = boundary_deviation(layout, samples, surface, sides)
     sagitta = max(c.offset for c in chords.values())
     assert deviation["design_to_panels"] == pytest.approx(sagitta, rel=0.05)

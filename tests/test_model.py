@@ -243,8 +243,12 @@ def test_clash_check_finds_a_deliberate_overlap(model):
         "C": part_solid(("plate", rib.outline, rib.frame, rib.thickness), "C"),
     }
     found, measures = find_clashes(solids, {"P": ["A", "B"], "Q": ["C"]}, [("P", "Q")])
-    assert [(a, b) for a, b, _ in found] == [("A", "B")]
+    assert [(a, b) for a, b, *_ in found] == [("A", "B")]
     assert found[0][2] > 100.0
+    # where: the centre of the common volume lies in both parts' boxes
+    for part in ("A", "B"):
+        box = np.asarray(solids[part].bounding_box())
+        assert np.all(box[:3] - 0.5 <= found[0][3]) and np.all(found[0][3] <= box[3:] + 0.5)
     assert measures["clashes"] == 1
     # the real rib against the stiffener: touching only
     ok, _ = find_clashes({k: solids[k] for k in ("B", "C")}, {"P": ["B", "C"]}, [])

@@ -29,7 +29,7 @@ def vault():
 
 def test_sample_mesh_shares_side_samples_by_topology(vault):
     surface, _job, layout = vault
-    samples, _ = sample_panels(layout, SurfaceQuery(surface), 5)
+    samples = sample_panels(layout, SurfaceQuery(surface), 5).samples
     mesh = sample_mesh(layout, samples)
     own, theirs = across_sides(layout, mesh.ids[..., None].astype(float))
     shared = layout.side_neighbours >= 0
@@ -45,7 +45,8 @@ def test_jacobian_matches_finite_differences(tmp_path):
     surface = _cap(tmp_path, n=8)
     query = SurfaceQuery(surface)
     layout = panelize(surface, Job.from_dict({"panelize": {"grid_u": 2, "grid_v": 2}}), query)
-    samples, normals = sample_panels(layout, query, 4)
+    design = sample_panels(layout, query, 4)
+    samples, normals = design.samples, design.normals
     solver = GlobalOptimiser(
         layout, samples, normals, query, closeness=0.1, fairness=0.1, rib=1.0, depth=150.0
     )
@@ -194,7 +195,8 @@ def test_the_solver_stops_in_the_tail_once_two_steps_move_no_sample_further_than
     surface = _cap(tmp_path, n=8)
     query = SurfaceQuery(surface)
     layout = panelize(surface, Job.from_dict({"panelize": {"grid_u": 2, "grid_v": 2}}), query)
-    samples, normals = sample_panels(layout, query, 5)
+    design = sample_panels(layout, query, 5)
+    samples, normals = design.samples, design.normals
 
     def solved(step_tolerance: float) -> dict:
         solver = GlobalOptimiser(

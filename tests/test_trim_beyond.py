@@ -100,8 +100,14 @@ def test_an_edge_left_untrimmed_is_an_error_when_it_misses_its_rib(lean, severit
     planes = _bevelled_planes(lean)
     face = trimmed_face(grid, normals[K // 2, K // 2], planes, np.ones(4, bool), 1.0, "BOT")
     assert face.untrimmed[0]
-    finding = _untrimmed_finding("P001-BOT", 0, face, planes)
+    origin = np.array([10_000.0, -5_000.0, 300.0])
+    finding = _untrimmed_finding("P001-BOT", 0, face, planes, origin)
     off = DEPTH * np.sin(np.radians(lean))
     assert finding[0] == "sheet-not-trimmed"
-    assert f"{off:.1f} mm off its rib plane" in finding[2]
+    assert f"{off:.1f} mm off its rib plane at (" in finding[2]
+    # where: a point of the edge, in model coordinates
+    where = finding[2].split("rib plane at (")[1].split(")")[0]
+    point = np.array([float(c) for c in where.split(", ")]) - origin
+    edge = side_curve(face.surface, 0, 33)
+    assert np.linalg.norm(edge - point, axis=1).min() < 1.0
     assert (finding[3] if len(finding) > 3 else "warning") == severity

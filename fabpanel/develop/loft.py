@@ -41,7 +41,8 @@ def develop_loft(
     from .optimise import grid_normals
     from .project import developed_panels, sample_panels
 
-    design, design_normals = sample_panels(layout, query, job.develop.samples)
+    sampled = sample_panels(layout, query, job.develop.samples)
+    design, design_normals = sampled.samples, sampled.normals
     m = len(design)
     candidates = ruled_grids(design)
     mean_distance = []
@@ -61,7 +62,7 @@ def develop_loft(
         "kink_deg": {"max": round(float(kinks.max()), 4)},
     }
     result = developed_panels(
-        layout, samples, normals, query, job, "loft", extra, design_samples=design
+        layout, samples, normals, query, job, "loft", sampled.chords, extra, design_samples=design
     )
     for i, pid in enumerate(layout.panel_ids):
         result.metrics["per_panel"][pid]["gap_mm"] = round(float(gaps[i].max()), 4)

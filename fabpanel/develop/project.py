@@ -31,24 +31,39 @@ def develop(
 ) -> DevelopedPanels:
     """Give every panel of ``layout`` its sample grid on the design surface, and measure it."""
     query = query or SurfaceQuery(surface)
-    samples, normals = sample_panels(layout, query, job.develop.samples)
-    return developed_panels(layout, samples, normals, query, job, "project")
+    design = sample_panels(layout, query, job.develop.samples)
+    return developed_panels(
+        layout, design.samples, design.normals, query, job, "project", design.chords
+    )
 
 
-def sample_panels(
-    layout: PanelLayout, query: SurfaceQuery, k: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """k x k samples and outward normals of every panel on the design surface, (m, k, k, 3)
-    each; neighbouring panels hold identical samples and normals along their shared side."""
+@dataclass(frozen=True)
+class PanelSamples:
+    """Every panel sampled on the design surface, and where its boundary sides cut across.
+
+    samples, normals : (m, k, k, 3) float, mm and unit outward; neighbouring panels hold
+    identical samples and normals along their shared side.
+    chords : the boundary sides that cut the chord across the design boundary instead of
+    following it (:func:`_flat_rib_chords`), keyed by their ``PanelLayout.edges`` row.
+    """
+
+    samples: np.ndarray
+    normals: np.ndarray
+    chords: dict[int, BoundaryChord]
+
+
+def sample_panels(layout: PanelLayout, query: SurfaceQuery, k: int) -> PanelSamples:
+    """k x k samples and outward normals of every panel on the design surface."""
     m = len(layout.quads)
+    chords: dict[int, BoundaryChord] = {}
     if layout.parameters is not None:
         uv = bilinear_grid(layout.parameters, k).reshape(-1, 2)
         points, normals = query.evaluate_uv(uv[:, 0], uv[:, 1])
         samples, normals = points.reshape(m, k, k, 3), normals.reshape(m, k, k, 3)
     else:
-        samples, normals = _surface_patches(layout, query, k)
+        samples, normals, chords = _surface_patches(layout, query, k)
     samples, normals = _pin_corners(layout, samples, normals)
-    return _share_sides(layout, samples, normals)
+    return PanelSamples(*_share_sides(layout, samples, normals), chords)
 
 
 def developed_panels(
@@ -58,12 +73,14 @@ def developed_panels(
     query: SurfaceQuery,
     job: Job,
     method: str,
+    chords: dict[int, BoundaryChord],
     extra_metrics: dict | None = None,
     extra_issues: tuple = (),
     design_samples: np.ndarray | None = None,
 ) -> DevelopedPanels:
     """Rib planes, classes and measures of final panel grids, as :class:`DevelopedPanels`.
 
+    ``chords``: the boundary sides that cut across the design boundary (:class:`PanelSamples`);
     ``design_samples``: the panels on the design surface before development, if they moved."""
     planes, edge_residuals, normal_angles, twist = side_planes(samples, normals)
     classes, radius, metrics, issues, deviation = classify_and_measure(
@@ -78,7 +95,6 @@ def developed_panels(
         job,
     )
     metrics["method"] = method
-    chords = boundary_chords(layout, query, samples.shape[1])
     metrics["boundary_deviation_mm"] = boundary_deviation(
         layout, samples, query.surface, _chord_sides(layout, chords)
     )
@@ -104,26 +120,16 @@ def developed_panels(
     )
 
 
-def side_edges(layout: PanelLayout) -> np.ndarray:
-    """(m, 4) int: the ``layout.edges`` row of every panel side."""
-    lookup = {(int(a), int(b)): i for i, (a, b) in enumerate(layout.edges)}
-    starts, ends = layout.quads, np.roll(layout.quads, -1, axis=1)
-    low, high = np.minimum(starts, ends), np.maximum(starts, ends)
-    return np.array(
-        [lookup[(int(a), int(b))] for a, b in zip(low.ravel(), high.ravel())], dtype=np.int64
-    ).reshape(layout.quads.shape)
-
-
 def _chord_sides(layout: PanelLayout, chords: dict[int, BoundaryChord]) -> np.ndarray:
     """(m, 4) bool: the panel sides that cut the chord across the design boundary."""
-    return np.isin(side_edges(layout), list(chords))
+    return np.isin(layout.side_edges, list(chords))
 
 
 def _chord_issues(layout: PanelLayout, chords: dict[int, BoundaryChord]) -> tuple[Issue, ...]:
     """A warning for every panel side that cuts the chord across the design boundary."""
     if not chords:
         return ()
-    edges = side_edges(layout)
+    edges = layout.side_edges
     found = []
     for panel, side in zip(*np.nonzero(np.isin(edges, list(chords)))):
         chord, pid = chords[int(edges[panel, side])], layout.panel_ids[panel]
@@ -134,8 +140,9 @@ def _chord_issues(layout: PanelLayout, chords: dict[int, BoundaryChord]) -> tupl
                 f"{chord.offset:.0f} mm from it: the boundary curves in the sheet's own plane "
                 f"there (radius about {chord.radius / 1000:.2f} m), and a planar rib following "
                 f"it would lean {chord.lean:.0f} degrees from square (at most "
-                f"{largest_rib_lean():.0f} can be built); a smaller panel size "
-                f"round it follows it closer",
+                f"{largest_rib_lean():.0f} can be built); the chord's bow goes with its "
+                f"length squared: panel sides half as long here (about "
+                f"{chord.length / 2:.0f} mm) would cut about {chord.offset / 4:.0f} mm deep",
                 pid,
                 "warning",
             )
@@ -166,20 +173,17 @@ def surface_sides(
 
 def _surface_patches(
     layout: PanelLayout, query: SurfaceQuery, k: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """k x k samples per panel: sides traced on the surface, interiors by Coons, projected."""
+) -> tuple[np.ndarray, np.ndarray, dict[int, BoundaryChord]]:
+    """k x k samples per panel: sides traced on the surface, interiors by Coons, projected;
+    and the boundary sides that cut their chord (:func:`_follow_design_boundary`)."""
     m = len(layout.quads)
     edges = layout.edges  # (e, 2) sorted vertex pairs
     curves = surface_sides(layout.vertices[edges[:, 0]], layout.vertices[edges[:, 1]], query, k)
-    _follow_design_boundary(layout, query, edges, curves)
-    lookup = {(int(a), int(b)): i for i, (a, b) in enumerate(edges)}
-    starts, ends = layout.quads, np.roll(layout.quads, -1, axis=1)
-    sides = np.empty((m, 4, k, 3))
-    for panel in range(m):
-        for side in range(4):
-            a, b = int(starts[panel, side]), int(ends[panel, side])
-            curve = curves[lookup[(min(a, b), max(a, b))]]
-            sides[panel, side] = curve if a < b else curve[::-1]
+    chords = _follow_design_boundary(layout, query, edges, curves)
+    # each side from its panel's corner s to s + 1; the edge curves run low -> high vertex
+    forward = layout.quads < np.roll(layout.quads, -1, axis=1)
+    along = curves[layout.side_edges]  # (m, 4, k, 3)
+    sides = np.where(forward[..., None, None], along, along[:, :, ::-1])
     patches = coons_patch(sides[:, 0], sides[:, 1], sides[:, 2], sides[:, 3])
     points, normals, _ = query.closest_continued(patches.reshape(-1, 3))
     points = points.reshape(m, k, k, 3)
@@ -187,7 +191,7 @@ def _surface_patches(
     grid = patches
     points[:, :, 0], points[:, :, -1] = grid[:, :, 0], grid[:, :, -1]
     points[:, 0, :], points[:, -1, :] = grid[:, 0, :], grid[:, -1, :]
-    return points, normals.reshape(m, k, k, 3)
+    return points, normals.reshape(m, k, k, 3), chords
 
 
 #: a layout vertex this close to the design boundary lies on it (mm)
@@ -201,12 +205,13 @@ STRETCH_LIMIT = 1.5
 class BoundaryChord:
     """A boundary side that cuts the chord across a design edge curving in the sheet's plane.
 
-    edge : index into ``PanelLayout.edges``; offset : mm, how far the design edge bows away from
-    the upright plane through the chord; radius : mm, the edge's radius of curvature in the
-    sheet (from chord and bow); lean : degrees, how far from square to the sheet a rib plane
-    following the design edge would lean."""
+    edge : index into ``PanelLayout.edges``; length : mm, the chord's; offset : mm, how far the
+    design edge bows away from the upright plane through the chord; radius : mm, the edge's
+    radius of curvature in the sheet (from chord and bow); lean : degrees, how far from square
+    to the sheet a rib plane following the design edge would lean."""
 
     edge: int
+    length: float
     offset: float
     radius: float
     lean: float
@@ -282,31 +287,24 @@ def _flat_rib_chords(
         lean = float(np.degrees(np.arcsin(min(1.0, np.abs(normals @ plane[0]).max()))))
         if lean > limit:
             radius = (length**2 / 4 + offset**2) / (2 * offset)
-            chords[e] = BoundaryChord(e, offset, radius, lean)
+            chords[e] = BoundaryChord(e, length, offset, radius, lean)
     return chords
-
-
-def boundary_chords(layout: PanelLayout, query: SurfaceQuery, k: int) -> dict[int, BoundaryChord]:
-    """The boundary sides of ``layout`` that cut the chord across the design boundary (see
-    :func:`_flat_rib_chords`), keyed by their index into ``layout.edges``."""
-    if layout.parameters is not None:
-        return {}
-    return _flat_rib_chords(_boundary_stretches(layout, query, layout.edges, k), query)
 
 
 def _follow_design_boundary(
     layout: PanelLayout, query: SurfaceQuery, edges: np.ndarray, curves: np.ndarray
-) -> None:
+) -> dict[int, BoundaryChord]:
     """Replace (in place) the traced curve of each boundary side whose two corners lie on the
     design boundary by the design boundary between them: the panel then follows the design's
     outline, rounded corners included, instead of cutting the chord across. Not where a planar
     rib along it would lie nearly flat in the sheet: that side keeps its traced chord, which
-    runs over the opening on the surface's tangent-plane continuation."""
+    runs over the opening on the surface's tangent-plane continuation. Returns those sides."""
     stretches = _boundary_stretches(layout, query, edges, curves.shape[1])
     chords = _flat_rib_chords(stretches, query)
     for e, stretch in stretches.items():
         if e not in chords:
             curves[e] = stretch
+    return chords
 
 
 def _pin_corners(

@@ -38,7 +38,8 @@ from ..job import Job
 from ..parallel import worker_pool
 from ..tolerances import TOLERANCES
 from .bolt_moves import MOVE_ROUNDS, Rooms, move_blocked_end_bolts
-from .clash import find_clashes, part_solid
+from .clash import Clash, find_clashes, part_solid
+from .nodes import node_planes
 from .panel import build_panel
 from .records import Failure, PanelPayload, PanelResult
 
@@ -71,6 +72,7 @@ def build(
     buildup = Buildup.of(job)
     m = len(developed.panel_ids)
     neighbours = developed.layout.side_neighbours
+    nodes = node_planes(developed.layout, developed.side_planes, buildup.welds.erection_gap)
     payloads = [
         PanelPayload(
             panel_id=developed.panel_ids[p],
@@ -83,6 +85,8 @@ def build(
             buildup=buildup,
             slide_limit=TOLERANCES.trim_slide * buildup.total_depth,
             fibre=job.cutting.neutral_fibre,
+            origin=np.asarray(developed.layout.origin, float),
+            nodes=nodes[p],
         )
         for p in range(m)
     ]
@@ -274,8 +278,16 @@ def _model_metrics(
     coaxial = _bolt_coaxiality(developed, results, issues)
     mismatch = _edge_mismatch(developed, results)
     clashes, clash_measures = _clash_check(developed, results)
-    for a, b, shared in clashes:
-        issues.append(Issue("clash", f"{a} and {b} interpenetrate by {shared:.0f} mm3", a, "error"))
+    for a, b, shared, centre in clashes:
+        where = ", ".join(f"{c:.0f}" for c in centre + developed.layout.origin)
+        issues.append(
+            Issue(
+                "clash",
+                f"{a} and {b} interpenetrate by {shared:.0f} mm3 at ({where}) mm",
+                a,
+                "error",
+            )
+        )
     volume = float(sum(p.volume for p in parts))
     metrics = {
         "parts": len(parts),
@@ -407,7 +419,7 @@ def _polyline_distance(points: np.ndarray, line: np.ndarray) -> float:
 
 def _clash_check(
     developed: DevelopedPanels, results: list[PanelResult]
-) -> tuple[list[tuple[str, str, float]], dict[str, Any]]:
+) -> tuple[list[Clash], dict[str, Any]]:
     """Clashes between the parts of each built panel and between built panels that share a
     corner (and so possibly a side); see :func:`fabpanel.model.clash.find_clashes`."""
     solids: dict[str, Any] = {}

@@ -32,6 +32,9 @@ import numpy as np
 from ..errors import KernelError
 from ..tolerances import TOLERANCES
 
+#: two parts that interpenetrate: their ids, the volume they share (mm3) and its centre (mm)
+Clash = tuple[str, str, float, np.ndarray]
+
 
 def plate_solid(
     outline: np.ndarray, frame: np.ndarray, thickness: float, shrink: float = 0.0
@@ -127,7 +130,7 @@ def find_clashes(
     groups: dict[str, list[str]],
     neighbours: Iterable[tuple[str, str]],
     fraction: float | None = None,
-) -> tuple[list[tuple[str, str, float]], dict]:
+) -> tuple[list[Clash], dict]:
     """Pairs of parts that interpenetrate beyond the tolerance.
 
     solids : part id -> its clash solid (:func:`part_solid`, :func:`to_manifold`).
@@ -135,8 +138,8 @@ def find_clashes(
     neighbours : pairs of group ids whose parts can touch (panels sharing a side or a corner).
     fraction : tolerance as a share of the smaller part's volume (default
         ``TOLERANCES.clash_volume``).
-    Returns ``[(part a, part b, common volume mm3)]`` and measures (largest common volume
-    relative to the smaller part, pairs checked).
+    Returns ``[(part a, part b, common volume mm3, its centre (3,) mm)]`` and measures
+    (largest common volume relative to the smaller part, pairs checked).
     """
     fraction = TOLERANCES.clash_volume if fraction is None else fraction
     neighbours = list(neighbours)
@@ -172,15 +175,17 @@ def find_clashes(
 
 def _pairwise(
     first: list[str], second: list[str], solids: dict, volumes: dict, fraction: float
-) -> tuple[list[tuple[str, str, float]], float]:
+) -> tuple[list[Clash], float]:
     found, worst = [], 0.0
     for a in first:
         for b in second:
             if a >= b and first is second:
                 continue
-            shared = common_volume(solids[a], solids[b])
+            common = solids[a] ^ solids[b]
+            shared = float(common.volume())
             relative = shared / min(volumes[a], volumes[b])
             worst = max(worst, relative)
             if relative > fraction:
-                found.append((a, b, shared))
+                box = np.asarray(common.bounding_box(), dtype=float)
+                found.append((a, b, shared, 0.5 * (box[:3] + box[3:])))
     return found, worst

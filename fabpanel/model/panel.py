@@ -92,7 +92,9 @@ class _Faces:
             if (part, int(side)) not in self.reported:
                 self.reported.add((part, int(side)))
                 self.findings.append(
-                    _untrimmed_finding(part, int(side), result, moved_in(self.planes, shifts))
+                    _untrimmed_finding(
+                        part, int(side), result, moved_in(self.planes, shifts), p.origin
+                    )
                 )
         return result
 
@@ -105,13 +107,19 @@ class _Faces:
         }
 
 
-def _untrimmed_finding(part: str, side: int, face: TrimmedFace, planes: np.ndarray) -> Finding:
+def _untrimmed_finding(
+    part: str, side: int, face: TrimmedFace, planes: np.ndarray, origin: np.ndarray
+) -> Finding:
     """A sheet face edge left at the developed edge: an error when it stands farther off its
-    rib plane than a weld bridges (the sheet does not meet its rib), a warning otherwise."""
+    rib plane than a weld bridges (the sheet does not meet its rib), a warning otherwise; it
+    says where, at the edge's point farthest off (model coordinates)."""
     edge = side_curve(face.surface, side, 33)
-    off = float(np.abs(edge @ planes[side, :3] - planes[side, 3]).max())
+    distance = np.abs(edge @ planes[side, :3] - planes[side, 3])
+    off = float(distance.max())
+    where = ", ".join(f"{c:.0f}" for c in edge[int(np.argmax(distance))] + origin)
     why = (
-        f"sheet face edge {side} left at the developed edge, {off:.1f} mm off its rib plane: "
+        f"sheet face edge {side} left at the developed edge, {off:.1f} mm off its rib plane "
+        f"at ({where}) mm: "
         "the plane meets the face only after a long slide or not at all (a rib plane nearly "
         "tangent to the sheet, or two rib planes meeting along a line nearly in it)"
     )
@@ -377,6 +385,7 @@ def _plates(
                     bolts.get(side),
                     bu.bolts.diameter,
                     bu.welds.snipe,
+                    _rib_nodes(payload, side),
                 )
             )
         except KernelError as err:
@@ -386,6 +395,13 @@ def _plates(
     return ribs + _stiffeners(
         payload, planes, (top_outer, top_inner, bottom_upper), findings, building
     )
+
+
+def _rib_nodes(payload: PanelPayload, side: int) -> tuple[np.ndarray, np.ndarray]:
+    """The other rib planes at the two corners of ``side`` (none when the payload has none)."""
+    if not payload.nodes:
+        return np.empty((0, 5)), np.empty((0, 5))
+    return payload.nodes[side], payload.nodes[(side + 1) % 4]
 
 
 def _stiffeners(

@@ -17,6 +17,7 @@ from ..data import Hole
 from ..errors import KernelError
 from ..geom.polygon import polygon_area
 from . import joints, occ
+from .nodes import facing
 from .trim import TrimmedFace, side_curve
 
 #: points along each rib edge curve (top and bottom), corner to corner
@@ -52,9 +53,12 @@ def rib(
     bolts: np.ndarray | None,
     bolt_diameter: float,
     snipe: float = 0.0,
+    nodes: tuple[np.ndarray, np.ndarray] = (np.empty((0, 5)), np.empty((0, 5))),
 ) -> dict:
     """One rib plate in its side plane (see the module docstring); ribs 1 and 3, which butt
-    against ribs 0 and 2, get ``snipe`` mm snipes at their four corners."""
+    against ribs 0 and 2, get ``snipe`` mm snipes at their four corners. ``nodes``: the other
+    rib planes at its start and end corners (:func:`fabpanel.model.nodes.node_planes`), which
+    cut its ends too."""
     plane = planes[side]
     # the edges densely (as the plane sections), so interpolating them between stations does
     # not cut chords into a convex sheet
@@ -69,7 +73,12 @@ def rib(
     for other in ((side - 1) % 4, (side + 1) % 4):
         # ribs 0 and 2 run to the outer faces of ribs 1 and 3, which stop at their inner faces
         inset = 0.0 if side % 2 == 0 else t_rib
-        chains = trim_chains(chains, frame, planes[other], inset, t_rib, name, other)
+        chains = trim_chains(chains, frame, planes[other], inset, t_rib, name, f"rib {other}")
+    middle = upper[len(upper) // 2]
+    for node in nodes:
+        for other_plane in node:
+            cut = facing(other_plane, middle)
+            chains = trim_chains(chains, frame, cut, 0.0, t_rib, name, "a rib plane at its node")
     holes = []
     if bolts is not None:
         local = (np.c_[bolts, np.ones(len(bolts))] @ np.linalg.inv(frame).T)[:, :2]
@@ -116,7 +125,9 @@ def stiffener(
         # corner's supplement, and cut however obtuse the corner
         tilted = abs(planes[other][:3] @ normal) > RIB_TILT_SIN
         tangent = TANGENT_RIB if tilted else TANGENT_STIFFENER
-        chains = trim_chains(chains, frame, planes[other], t_rib, t_stf, name, other, tangent)
+        chains = trim_chains(
+            chains, frame, planes[other], t_rib, t_stf, name, f"rib {other}", tangent
+        )
     upper, lower = chains
     return plate(name, "stiffener", outline_edges(upper, lower, snipe), frame, t_stf, plane, [])
 
@@ -279,7 +290,7 @@ def trim_chains(
     inset: float,
     thickness: float,
     name: str,
-    other: int,
+    other: str,
     tangent: float = 0.0,
 ) -> list[np.ndarray]:
     """Cut both edge chains of a plate (extruded ``thickness`` along the frame's z) where the
@@ -295,7 +306,7 @@ def trim_chains(
     chains = [clip_polyline(chain, np.array([a, b]), limit) for chain in chains]
     if min(len(chain) for chain in chains) < 2:
         raise KernelError(
-            f"outline of {name} vanished when trimmed at rib {other}; the panel "
+            f"outline of {name} vanished when trimmed at {other}; the panel "
             f"is too small for its ribs and stiffeners"
         )
     return chains

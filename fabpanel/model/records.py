@@ -32,6 +32,10 @@ class PanelPayload:
     fibre : the sheets' unrolled fibre (``mid``, ``outer``, ``inner``).
     stations : ``((side, stations), ...)``: bolt stations (mm along the side) that replace the
         even spacing of a side, after end bolts were moved for the tool.
+    origin : (3,) float, mm: the layout's origin, so that findings can say where they are in
+        the model's own coordinates (``local + origin``).
+    nodes : per corner, the other rib planes at its vertex (:mod:`fabpanel.model.nodes`),
+        which cut the ends of the ribs there; empty: none.
     """
 
     panel_id: str
@@ -44,6 +48,8 @@ class PanelPayload:
     slide_limit: float
     fibre: str
     stations: tuple[tuple[int, np.ndarray], ...] = ()
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    nodes: tuple[np.ndarray, ...] = ()
 
     def stations_of(self, side: int) -> np.ndarray | None:
         """The moved bolt stations of ``side``, or None (evenly spaced)."""
