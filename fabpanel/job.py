@@ -300,6 +300,11 @@ class DevelopSection(_Section):
     #: largest unroll strain (relative edge-length change) for a panel to count as developable.
     #: 5e-4 is 0.05 %: 0.75 mm on a 1.5 m sheet, within the plasma tolerance.
     strain_tolerance: float = Field(default=5e-4, gt=0, lt=0.5)
+    #: a panel lying farther than this from the design surface anywhere is a warning naming
+    #: it, with the panel size that would keep it within (a developable panel leaves a doubly
+    #: curved design by about its size squared times the curvature). What the design allows is
+    #: the designer's call: set it to the cladding's or the architect's tolerance
+    deviation_tolerance: PositiveLength = _default("20 mm")
     #: global: weight of closeness to the design surface against developability (1). Lower lets
     #: panels move further to become developable; higher keeps the shape
     closeness: float = Field(default=0.05, gt=0, le=100)

@@ -74,6 +74,31 @@ def test_doubly_curved_panels_are_not_developable(tmp_path):
     assert again.metrics["unroll_strain"]["max"] <= smaller.develop.strain_tolerance
 
 
+def test_panels_far_from_the_design_are_named_with_the_size_that_stays_within(tmp_path):
+    surface = sphere_cap(tmp_path, n=30)
+    job = Job.from_dict(
+        {
+            "panelize": {"grid_u": 3, "grid_v": 3},
+            "develop": {"method": "loft", "deviation_tolerance": "20 mm"},
+        }
+    )
+    developed = develop(panelize(surface, job), surface, job)
+    per_panel = developed.metrics["per_panel"]
+    far = {pid for pid, p in per_panel.items() if p["deviation_max_mm"] > 20.0}
+    assert far  # 2 m ruled panels on a 5 m sphere leave it by far more than 20 mm
+    warned = [i for i in developed.issues if i.code == "panel-off-design"]
+    assert {i.item for i in warned} == far and all(i.severity == "warning" for i in warned)
+    # the deviation of a ruled panel from a sphere grows with its size squared: at the
+    # smallest size advised, every panel stays within the tolerance
+    sizes = [float(i.message.split("panels of about ")[1].split(" mm")[0]) for i in warned]
+    smaller = job.replace(
+        panelize={"grid_u": None, "grid_v": None, "panel_size": f"{min(sizes)} mm"}
+    )
+    again = develop(panelize(surface, smaller), surface, smaller)
+    assert again.metrics["deviation_mm"]["max"] <= 20.0
+    assert not [i for i in again.issues if i.code == "panel-off-design"]
+
+
 def test_advised_panel_size_follows_the_square_law():
     side = np.linspace(0.0, 1000.0, 5)
     grid = np.stack([*np.meshgrid(side, side, indexing="ij"), np.zeros((5, 5))], -1)[None]

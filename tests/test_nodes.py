@@ -22,7 +22,7 @@ from fabpanel.develop.sides import side_planes
 from fabpanel.model.nodes import facing, node_planes
 
 
-def test_node_planes_are_the_other_edges_at_each_corner():
+def test_node_planes_are_those_of_the_panels_meeting_only_at_a_corner():
     layout = _ring_layout()
     k = 5
     t = np.linspace(0, 1, k)
@@ -37,10 +37,11 @@ def test_node_planes_are_the_other_edges_at_each_corner():
     normals = np.broadcast_to([0.0, 0.0, 1.0], samples.shape)
     planes, *_ = side_planes(samples, normals)
     nodes = node_planes(layout, planes, erection_gap=4.0)
-    # P002 = quad (1, 5, 6, 2): at its corner 1, vertex 5 (the opening's corner), its own
-    # sides 1-5 and 5-6; the others there are 4-5 (a joint) and 5-9 (the opening's chord)
-    at_five = nodes[1][1]
-    assert len(at_five) == 2
+    # P002 = quad (1, 5, 6, 2): at its corner 1, vertex 5 (the opening's corner), it meets
+    # P004 = quad (4, 8, 9, 5) only there; P004's sides there are 4-5 (a joint) and 5-9 (the
+    # opening's chord)
+    assert nodes[1][1].shape == (1, 2, 5)
+    at_five = nodes[1][1][0]
     expected = {
         (4, 5): 2.0,  # half the erection gap
         (5, 9): 0.0,  # a boundary side: its rib stands on the contact plane
@@ -53,8 +54,13 @@ def test_node_planes_are_the_other_edges_at_each_corner():
             if abs(row[:3] @ start - row[3]) < 1e-6 and abs(row[:3] @ end - row[3]) < 1e-6
         ]
         assert len(match) == 1 and match[0][4] == stand_off
-    # the outer corner of P001 (vertex 0) is no node: only its own two sides meet there
-    assert len(nodes[0][0]) == 0
+        # oriented into P004, so a rib can tell whether the plane parts it from P004
+        assert match[0][:3] @ layout.vertices[layout.quads[3]].mean(axis=0) > match[0][3]
+    # the outer corner of P001 (vertex 0) is no node: only its own two sides meet there; at
+    # its corner 2 (vertex 5) both other panels share a side with it, whose plane parts them
+    assert len(nodes[0][0]) == 0 and len(nodes[0][2]) == 0
+    # at vertex 4, on the outer boundary, P001 and P004 share the side 4-5: no node either
+    assert len(nodes[0][1]) == 0 and len(nodes[3][0]) == 0
 
 
 def test_a_node_plane_faces_the_rib_it_cuts():
@@ -70,7 +76,12 @@ def test_panels_meeting_only_at_a_vertex_do_not_overlap_where_the_rib_planes_twi
     monkeypatch.setattr(optimise, "SQUARE_RIB_SHARE", 0.0)
     surface, layout = _plate(), _ring_layout()
     job = Job.from_dict(
-        {"input": {"path": "plate.obj", "units": "mm"}, "develop": {"method": "global"}}
+        {
+            "input": {"path": "plate.obj", "units": "mm"},
+            "develop": {"method": "global"},
+            # no access slots: the tool's reach is not what is tested, and it triples the time
+            "sandwich": {"bolts": {"access_sheet": "none"}},
+        }
     )
     developed = develop(layout, surface, job)
     twist = developed.metrics["rib_normal_angle_deg_max"]
@@ -80,7 +91,7 @@ def test_panels_meeting_only_at_a_vertex_do_not_overlap_where_the_rib_planes_twi
     # without the node cuts the same panels clash
     builder = importlib.import_module("fabpanel.model.build")
     monkeypatch.setattr(
-        builder, "node_planes", lambda layout, *_: [(np.empty((0, 5)),) * 4] * len(layout.quads)
+        builder, "node_planes", lambda layout, *_: [(np.empty((0, 2, 5)),) * 4] * len(layout.quads)
     )
     uncut = build(developed, job, jobs=2)
     clashes = [i for i in uncut.issues if i.code == "clash"]
@@ -94,3 +105,9 @@ def test_panels_meeting_only_at_a_vertex_do_not_overlap_where_the_rib_planes_twi
     assert min(removed.values()) > -1.0  # nothing added
     assert 0 < max(removed.values()) < 2 * 2 * sliver
     assert sum(1 for r in removed.values() if r > 1.0) < len(removed)  # only at the nodes
+    # the build says how many rib ends were cut and by how much along their edges
+    shortened = sum(1 for r in removed.values() if r > 1.0)
+    assert model.metrics["ribs_cut_at_nodes"] >= shortened
+    step = 2 * depth * np.tan(np.radians(twist))
+    assert 1.0 < model.metrics["max_rib_node_cut_mm"] < step
+    assert uncut.metrics["ribs_cut_at_nodes"] == 0

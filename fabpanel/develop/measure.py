@@ -70,17 +70,46 @@ def conical(normals: np.ndarray) -> np.ndarray:
     )
 
 
-def advised_panel_size(samples: np.ndarray, strain: np.ndarray, tolerance: float) -> np.ndarray:
-    """(m,) mm: the panel size at which each panel's unroll strain would meet ``tolerance``.
+def advised_panel_size(samples: np.ndarray, measure: np.ndarray, tolerance: float) -> np.ndarray:
+    """(m,) mm: the panel size at which each panel's ``measure`` would meet ``tolerance``.
 
-    The strain of a doubly curved patch flattened isometrically grows with its size squared
-    (metric distortion ~ K L^2), so the size scales with sqrt(tolerance / strain); panels within
-    tolerance keep their own size.
+    The measure grows with the panel's size squared: the unroll strain of a doubly curved patch
+    flattened isometrically (metric distortion ~ K L^2), or how far a developable panel leaves
+    a doubly curved design (the sagittas of its two directions differ by ~ K L^2). So the size
+    scales with sqrt(tolerance / measure); panels within tolerance keep their own size.
     """
     corners = samples[:, [0, -1, -1, 0], [0, 0, -1, -1]]
     size = np.linalg.norm(corners - np.roll(corners, -1, axis=1), axis=-1).mean(axis=1)
-    ratio = np.sqrt(tolerance / np.maximum(strain, tolerance))
+    ratio = np.sqrt(tolerance / np.maximum(measure, tolerance))
     return np.floor(ADVICE_MARGIN * size * ratio / ADVICE_ROUNDING) * ADVICE_ROUNDING
+
+
+def _deviation_issues(
+    panel_ids: tuple[str, ...],
+    samples: np.ndarray,
+    deviation: np.ndarray,
+    job: Job,
+) -> list[Issue]:
+    """A warning for every panel farther than ``[develop] deviation_tolerance`` from the design
+    surface (``deviation (m,)`` mm), with the panel size that would keep it within."""
+    tolerance = float(job.develop.deviation_tolerance)
+    far = np.flatnonzero(deviation > tolerance)
+    if not len(far):
+        return []
+    advice = advised_panel_size(samples, deviation, tolerance)
+    return [
+        Issue(
+            "panel-off-design",
+            f"panel {panel_ids[i]} lies up to {deviation[i]:.0f} mm from the design surface "
+            f"(tolerance {tolerance:g} mm): to be developable it had to leave the doubly "
+            f"curved design, by about its size squared times the curvature; panels of about "
+            f"{advice[i]:.0f} mm here would stay within it, or raise [develop] "
+            "deviation_tolerance if the design allows",
+            panel_ids[i],
+            "warning",
+        )
+        for i in far
+    ]
 
 
 def classify_and_measure(
@@ -167,6 +196,7 @@ def classify_and_measure(
                     "warning",
                 )
             )
+    issues += _deviation_issues(panel_ids, samples, deviation, job)
     failing = strain > tolerance
     if failing.any():
         issues.append(

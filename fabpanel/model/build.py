@@ -301,6 +301,7 @@ def _model_metrics(
         "max_sheet_trim_slide_mm": float(max(slide)),
         "max_sheet_edge_mismatch_mm": mismatch,
         "max_plate_planarity_mm": float(max(planarity)),
+        **_node_cuts(results),
         "max_rib_contact_gap_mm": gap,
         "max_bolt_coaxial_error_mm": coaxial,
         "clash": clash_measures,
@@ -309,6 +310,13 @@ def _model_metrics(
         "panels": per_panel,
     }
     return metrics, issues
+
+
+def _node_cuts(results: list[PanelResult]) -> dict[str, Any]:
+    """How many rib ends the node cuts shortened (:mod:`fabpanel.model.nodes`) and by how
+    much at most, mm (along an edge of the rib: the bottom edge, where the planes part)."""
+    cuts = [v for r in results for v in r.measures.get("rib_node_cut_mm", {}).values()]
+    return {"ribs_cut_at_nodes": len(cuts), "max_rib_node_cut_mm": max(cuts, default=0.0)}
 
 
 def _bolt_counts(results: list[PanelResult]) -> dict[str, Any]:

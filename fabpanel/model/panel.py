@@ -213,6 +213,9 @@ def build_panel(payload: PanelPayload, where: list[str] | None = None) -> PanelR
         plates += _packing_plates(payload, faces.planes, bolts, building)
         parts += plates
         measures["plate_planarity_mm"] = {r["id"]: r["planarity"] for r in plates}
+        measures["rib_node_cut_mm"] = {
+            r["id"]: round(r["node_cut"], 2) for r in plates if r.get("node_cut", 0.0) > 0.01
+        }
         building(pid)
         findings += _clearance_findings(pid, parts, bolts, bu.bolts.diameter)
         if design is not None:
@@ -400,7 +403,7 @@ def _plates(
 def _rib_nodes(payload: PanelPayload, side: int) -> tuple[np.ndarray, np.ndarray]:
     """The other rib planes at the two corners of ``side`` (none when the payload has none)."""
     if not payload.nodes:
-        return np.empty((0, 5)), np.empty((0, 5))
+        return np.empty((0, 2, 5)), np.empty((0, 2, 5))
     return payload.nodes[side], payload.nodes[(side + 1) % 4]
 
 

@@ -53,7 +53,7 @@ def rib(
     bolts: np.ndarray | None,
     bolt_diameter: float,
     snipe: float = 0.0,
-    nodes: tuple[np.ndarray, np.ndarray] = (np.empty((0, 5)), np.empty((0, 5))),
+    nodes: tuple[np.ndarray, np.ndarray] = (np.empty((0, 2, 5)), np.empty((0, 2, 5))),
 ) -> dict:
     """One rib plate in its side plane (see the module docstring); ribs 1 and 3, which butt
     against ribs 0 and 2, get ``snipe`` mm snipes at their four corners. ``nodes``: the other
@@ -75,17 +75,58 @@ def rib(
         inset = 0.0 if side % 2 == 0 else t_rib
         chains = trim_chains(chains, frame, planes[other], inset, t_rib, name, f"rib {other}")
     middle = upper[len(upper) // 2]
+    uncut = chains
     for node in nodes:
-        for other_plane in node:
-            cut = facing(other_plane, middle)
-            chains = trim_chains(chains, frame, cut, 0.0, t_rib, name, "a rib plane at its node")
+        for pair in node:
+            chains = _cut_at_node(chains, frame, pair, middle, t_rib, name)
+    node_cut = _shortening(uncut, chains)
     holes = []
     if bolts is not None:
         local = (np.c_[bolts, np.ones(len(bolts))] @ np.linalg.inv(frame).T)[:, :2]
         holes = [(centre, bolt_diameter) for centre in local]
     top, bottom = chains
     edges = outline_edges(top, bottom, snipe if side % 2 == 1 else 0.0)
-    return plate(name, "rib", edges, frame, t_rib, plane, holes)
+    return {**plate(name, "rib", edges, frame, t_rib, plane, holes), "node_cut": float(node_cut)}
+
+
+def _shortening(before: list[np.ndarray], after: list[np.ndarray]) -> float:
+    """How far a cut shortened the edge chains of a plate at either end, mm (the chains run
+    along the frame's x)."""
+    return max(
+        float(max(new[0, 0] - old[0, 0], old[-1, 0] - new[-1, 0]))
+        for old, new in zip(before, after, strict=True)
+    )
+
+
+def _cut_at_node(
+    chains: list[np.ndarray],
+    frame: np.ndarray,
+    pair: np.ndarray,
+    middle: np.ndarray,
+    t_rib: float,
+    name: str,
+) -> list[np.ndarray]:
+    """A rib's edge chains kept out of a panel that meets its own only at a node: cut at the
+    one of that panel's two rib planes there (``pair (2, 5)``, see
+    :func:`fabpanel.model.nodes.node_planes`) that takes less off, on the side of the rib's
+    ``middle``; either keeps the rib out of the wedge between them, if the rib's middle lies
+    outside the panel's side of it (the planes' normals point into that panel). A plane running
+    along the rib (``TANGENT_RIB``) cannot cut it, nor one the rib would vanish at."""
+    best: tuple[float, list[np.ndarray]] | None = None
+    for plane in pair:
+        if plane[:3] @ middle - plane[3] >= 0:
+            continue  # the rib's middle on the panel's side: this plane does not part them
+        cut = facing(plane, middle)
+        if abs(cut[:3] @ frame[:3, 0]) < TANGENT_RIB:
+            continue
+        try:
+            trimmed = trim_chains(chains, frame, cut, 0.0, t_rib, name, "a rib plane at its node")
+        except KernelError:
+            continue
+        removed = _shortening(chains, trimmed)
+        if best is None or removed < best[0]:
+            best = (removed, trimmed)
+    return chains if best is None else best[1]
 
 
 def stiffener(
