@@ -528,6 +528,7 @@ method = "global"              # global: optimise all panels at once (developabl
                                # loft: the thesis's per-panel ruled surfaces | project: as designed
 samples = 9                    # k x k samples per panel (9 = the thesis's subdivision level 3)
 strain_tolerance = 0.0005      # largest unroll strain of a developable panel (0.05 %)
+# deviation_tolerance = "20 mm"  # a panel farther from the design surface is a warning
 
 [sandwich]
 buildup = "sandwich"           # sandwich (top + bottom sheet, ribs) | cladding (one sheet)
