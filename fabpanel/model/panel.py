@@ -401,7 +401,8 @@ def _plates(
 
 
 def _rib_nodes(payload: PanelPayload, side: int) -> tuple[np.ndarray, np.ndarray]:
-    """The other rib planes at the two corners of ``side`` (none when the payload has none)."""
+    """The rib-plane pairs of the panels meeting this one only at either corner of ``side``
+    (:func:`fabpanel.model.nodes.node_planes`; none when the payload has none)."""
     if not payload.nodes:
         return np.empty((0, 2, 5)), np.empty((0, 2, 5))
     return payload.nodes[side], payload.nodes[(side + 1) % 4]

@@ -56,9 +56,9 @@ def rib(
     nodes: tuple[np.ndarray, np.ndarray] = (np.empty((0, 2, 5)), np.empty((0, 2, 5))),
 ) -> dict:
     """One rib plate in its side plane (see the module docstring); ribs 1 and 3, which butt
-    against ribs 0 and 2, get ``snipe`` mm snipes at their four corners. ``nodes``: the other
-    rib planes at its start and end corners (:func:`fabpanel.model.nodes.node_planes`), which
-    cut its ends too."""
+    against ribs 0 and 2, get ``snipe`` mm snipes at their four corners. ``nodes``: at its start
+    and end corners, the rib-plane pairs of the panels meeting its panel only there
+    (:func:`fabpanel.model.nodes.node_planes`), which cut its ends too (:func:`_cut_at_node`)."""
     plane = planes[side]
     # the edges densely (as the plane sections), so interpolating them between stations does
     # not cut chords into a convex sheet
