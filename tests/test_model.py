@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from conftest import cylinder_developed
@@ -264,6 +266,10 @@ def test_step_assembly_round_trip(model, tmp_path):
     assert text.count("COLOUR_RGB") >= 3
     # compact (issue 18): no 2D curves, the reader projects the edges; read back valid below
     assert "PCURVE" not in text
+    # compact text: an entity a line, each point once (tests/test_step_compact.py)
+    points = re.findall(r"(?m)^#\d+=(CARTESIAN_POINT\(.*\));$", text)
+    assert len(points) > 100 and len(points) == len(set(points))
+    assert all(line.endswith(";") for line in text.split("DATA;")[1].splitlines() if line)
     shapes = read_step_parts(path)
     assert sorted(shapes) == sorted(p.id for p in model.parts)
     for part in model.parts:

@@ -21,6 +21,7 @@ import numpy as np
 from ..data import Model, Part
 from ..errors import KernelError
 from . import occ
+from .step_chunks import compact_file
 
 log = logging.getLogger(__name__)
 
@@ -183,17 +184,6 @@ def _write_step(
         raise KernelError(f"STEP export to {path} failed")
 
 
-def _number_usages(path: Path) -> None:
-    """Number the file's assembly usages 1, 2, ... in order: OCCT takes their ids from a
-    counter that runs on through the process, so the second file written by one process
-    differed from the first in nothing but these ids."""
-    import itertools
-
-    from .step_chunks import number_usages
-
-    path.write_bytes(number_usages(path.read_bytes(), itertools.count(1)))
-
-
 def write_panel_steps(model: Model, folder: str | Path) -> dict[str, str]:
     """One STEP per panel, ``<folder>/<panel>.step``; returns {panel id: file name}."""
     folder = Path(folder)
@@ -204,7 +194,7 @@ def write_panel_steps(model: Model, folder: str | Path) -> dict[str, str]:
             continue
         name = f"{pid}.step"
         _write_step(_placed(_panel_compound(model, pid), model), model.parts_of(pid), folder / name)
-        _number_usages(folder / name)
+        compact_file(folder / name)
         written[pid] = name
     return written
 

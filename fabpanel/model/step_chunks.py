@@ -21,6 +21,7 @@ from pathlib import Path
 
 from ..data import Part
 from ..errors import KernelError
+from .step_compact import compact_entities
 
 #: panels a chunk: about 2-3 MB of STEP and a few hundred MB of OCCT model in its worker
 STEP_CHUNK_PANELS = 16
@@ -56,7 +57,7 @@ def write_chunk(
         text = path.read_bytes()
     start = text.index(b"DATA;") + len(b"DATA;")
     end = text.rindex(b"ENDSEC;")
-    return text[:start], merged_entities(text[start:end], index, count)
+    return text[:start], merged_entities(compact_entities(text[start:end]), index, count)
 
 
 def merged_entities(data: bytes, index: int, count: int) -> bytes:
@@ -124,6 +125,16 @@ def _search(data: bytes, pattern: bytes) -> re.Match:
 def _find(data: bytes, pattern: bytes, *numbers: int) -> int:
     """The number the pattern (formatted with ``numbers``) captures first."""
     return int(_search(data, pattern % numbers if numbers else pattern).group(1))
+
+
+def compact_file(path: Path) -> None:
+    """A STEP file OCCT wrote, rewritten compactly (:mod:`fabpanel.model.step_compact`) with
+    its assembly usages numbered 1, 2, ... in order."""
+    text = path.read_bytes()
+    start = text.index(b"DATA;") + len(b"DATA;")
+    end = text.rindex(b"ENDSEC;")
+    data = number_usages(compact_entities(text[start:end]), itertools.count(1))
+    path.write_bytes(text[:start] + data + text[end:])
 
 
 def number_usages(data: bytes, count: Iterator[int]) -> bytes:
