@@ -74,3 +74,57 @@ def test_a_slot_has_a_joint_where_each_run_meets_a_round_and_a_circle_none():
     assert all(straight[(i + 1) % len(slot)] or straight[i - 1] for i in found)
     angle = np.linspace(0.0, 2 * np.pi, 60, endpoint=False)
     assert not len(joints(np.c_[np.cos(angle), np.sin(angle)] * 20.0))
+
+
+def _cylinder_grid(radius: float, n: int = 19, width: float = 1200.0) -> np.ndarray:
+    angles, ys = np.meshgrid(
+        np.linspace(0, width / radius, n), np.linspace(0, width, n), indexing="ij"
+    )
+    return np.stack([radius * np.sin(angles), ys, radius * np.cos(angles)], axis=-1)
+
+
+def _exact_cylinder_distance(points: np.ndarray, radius: float) -> float:
+    return float(np.abs(np.hypot(points[..., 0], points[..., 2]) - radius).max())
+
+
+@pytest.mark.parametrize("radius", [4000.0, 1500.0])
+def test_a_rolled_sheet_needs_few_poles_and_stays_on_its_cylinder(radius):
+    """A sheet face's 19 x 19 grid on a cylinder: straight along the axis (4 poles), a few
+    spans round it; on the exact cylinder within the tolerance at and between the grid
+    points, its boundary rows exactly on the grid's."""
+    from fabpanel.geom.bspline_fit import SURFACE_TOLERANCE, fit_grid
+
+    grid = _cylinder_grid(radius)
+    fit = fit_grid(grid)
+    assert fit is not None
+    assert fit.poles.shape[1] == 4 and fit.poles.shape[0] <= 11
+    dense = np.linspace(0, 1, 97)
+    assert _exact_cylinder_distance(fit.evaluate(dense, dense), radius) <= SURFACE_TOLERANCE
+    np.testing.assert_allclose(fit.poles[[0, -1]][:, [0, -1]], grid[[0, -1]][:, [0, -1]])
+
+
+def test_a_boundary_row_in_a_plane_gives_a_boundary_curve_in_it():
+    """The trimmed sheet's rows lie in the rib planes: the fitted face's boundary curves must
+    stay in them (to round-off), not just within the tolerance."""
+    from fabpanel.geom.bspline_fit import fit_grid
+
+    grid = _cylinder_grid(4000.0)
+    # shear the grid so its v = 0 row lies in an oblique plane through the first row
+    tilt = np.array([0.2, 0.0, 0.1])
+    grid = grid + (grid[..., 1:2] / 1200.0) * tilt * 30.0
+    normal = np.cross(grid[-1, 0] - grid[0, 0], [0.0, 0.0, 1.0])
+    normal /= np.linalg.norm(normal)
+    grid[:, 0] -= np.outer(grid[:, 0] @ normal - grid[0, 0] @ normal, normal)
+    fit = fit_grid(grid, tolerance=0.05)
+    assert fit is not None
+    edge = fit.evaluate(np.linspace(0, 1, 200), np.array([0.0]))[:, 0]
+    assert np.abs(edge @ normal - grid[0, 0] @ normal).max() < 1e-9
+
+
+def test_a_noisy_grid_is_left_to_interpolation():
+    """Points off a smooth surface by 0.01 mm (a faceted mesh's samples): no fit with fewer
+    poles holds 0.001 mm, and None says so (the build then interpolates every point)."""
+    from fabpanel.geom.bspline_fit import fit_grid
+
+    grid = _cylinder_grid(4000.0) + np.random.default_rng(0).normal(0, 0.01, (19, 19, 3))
+    assert fit_grid(grid) is None

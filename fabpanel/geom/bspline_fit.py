@@ -50,6 +50,14 @@ JOINT_TURN = np.radians(5.0)
 DEGREE = 3
 
 
+#: the largest distance a sheet face fitted with fewer poles may leave its point grid (and the
+#: cubic through the grid between its points), mm: half of it for each parameter direction
+SURFACE_TOLERANCE = 0.001
+#: a sheet face's grid is smooth (sampled on the developed surface): a fit may keep up to
+#: this share of its points each way (a 1.2 m sheet rolled to 1.5 m: 13 of 19)
+SURFACE_POLE_SHARE = 0.75
+
+
 @dataclass(frozen=True)
 class CubicFit:
     """A clamped cubic B-spline: ``knots`` (m + 1,) distinct, from 0 to the chain's length,
@@ -148,6 +156,87 @@ def fit_loop(
     # its own face's curve: they follow the same points at the same parameters)
     keeps = all(_keeps_to_chords(fit, params, closed(sets[k]), tolerance, k) for k in (0, 1))
     return fit if keeps else None
+
+
+@dataclass(frozen=True)
+class SurfaceFit:
+    """A clamped bicubic B-spline surface over the unit square: ``u`` and ``v`` the knot
+    vectors of its two directions (as :class:`CubicFit`s without poles of their own),
+    ``poles`` (a, b, 3), mm."""
+
+    u: CubicFit
+    v: CubicFit
+    poles: np.ndarray
+
+    def evaluate(self, us: np.ndarray, vs: np.ndarray) -> np.ndarray:
+        """The surface on the grid ``us (a,)`` x ``vs (b,)``: (a, b, 3)."""
+        bu = design_matrix(us, self.u.knots, self.u.multiplicities)
+        bv = design_matrix(vs, self.v.knots, self.v.multiplicities)
+        return np.einsum("ia,abd,jb->ijd", bu, self.poles, bv)
+
+
+def fit_grid(grid: np.ndarray, tolerance: float = SURFACE_TOLERANCE) -> SurfaceFit | None:
+    """The bicubic with the fewest knots found by bisection within ``tolerance`` of every point
+    of ``grid`` (n, m, 3), ``grid[i, j]`` at ``(i / (n - 1), j / (n - 1))``, and of the bicubic
+    through every point halfway between them. The surface's four boundary curves are fitted to
+    the grid's four boundary rows alone (the end poles of every row and column on its end
+    points), so a boundary row lying in a plane gives a boundary curve in that plane (a
+    least-squares fit keeps the partition of unity's affine invariance). Fitted first along
+    ``u`` (every column at once, to half the tolerance), then its pole rows along ``v`` (the
+    other half: the surface leaves the first fit by no more than its poles do). None where
+    no fit with at most :data:`SURFACE_POLE_SHARE` of the points each way holds (the caller then
+    interpolates every point)."""
+    grid = np.asarray(grid, float)
+    n, m = grid.shape[:2]
+    if min(n, m) < 5:
+        return None
+    us, vs = np.linspace(0.0, 1.0, n), np.linspace(0.0, 1.0, m)
+    along_u = _one_direction(grid.reshape(n, m * 3), us, m, 0.5 * tolerance)
+    if along_u is None:
+        return None
+    (u_knots, u_mults), rows = along_u
+    a = rows.shape[0]
+    middle = rows.reshape(a, m, 3).transpose(1, 0, 2).reshape(m, a * 3)
+    along_v = _one_direction(middle, vs, a, 0.5 * tolerance)
+    if along_v is None:
+        return None
+    (v_knots, v_mults), columns = along_v
+    poles = columns.reshape(-1, a, 3).transpose(1, 0, 2)
+    empty = np.zeros((0, 3))
+    fit = SurfaceFit(CubicFit(u_knots, u_mults, empty), CubicFit(v_knots, v_mults, empty), poles)
+    if np.linalg.norm(fit.evaluate(us, vs) - grid, axis=2).max() > tolerance:
+        return None
+    # between the points: against the bicubic through them (a least-squares one can swing)
+    half_u, half_v = 0.5 * (us[1:] + us[:-1]), 0.5 * (vs[1:] + vs[:-1])
+    through = make_interp_spline(
+        vs, make_interp_spline(us, grid, k=DEGREE)(half_u), k=DEGREE, axis=1
+    )
+    if np.linalg.norm(fit.evaluate(half_u, half_v) - through(half_v), axis=2).max() > tolerance:
+        return None
+    return fit
+
+
+def _one_direction(
+    values: np.ndarray, params: np.ndarray, sets: int, tolerance: float
+) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray] | None:
+    """``values`` (n, 3 sets) fitted along their rows, every set of 3 columns a curve of one
+    knot vector: ((knots, mults), poles (p, 3 sets)), or None."""
+    knots = np.array([0.0, 1.0])
+    widths = 3 * np.arange(sets + 1)
+    found = _refined(
+        values,
+        params,
+        knots,
+        _clamped(knots),
+        np.ones_like(values),
+        tolerance,
+        widths,
+        SURFACE_POLE_SHARE,
+    )
+    if found is None:
+        return None
+    knots, mults, poles = found
+    return (knots, mults), poles
 
 
 def joints(loop: np.ndarray) -> np.ndarray:

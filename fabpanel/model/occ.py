@@ -62,7 +62,7 @@ from OCP.TopLoc import TopLoc_Location
 from OCP.TopoDS import TopoDS, TopoDS_Shape
 
 from ..errors import KernelError
-from ..geom.bspline_fit import DEGREE, CubicFit, fit_cubic, fit_loop
+from ..geom.bspline_fit import DEGREE, CubicFit, fit_cubic, fit_grid, fit_loop
 from ..surface.brep import brep_to_shape, shape_to_brep
 
 #: tolerance of faces made from fitted surfaces, mm (OCCT's default Precision::Confusion is 1e-7)
@@ -108,6 +108,36 @@ def bspline_surface(grid: np.ndarray, name: str = "surface") -> tuple[Geom_BSpli
     # the interpolation parameters are uniform on the unit square (pinned in the kernel quirk
     # tests), so the error at the samples is a direct evaluation, not a projection
     return surface, float(np.linalg.norm(sample_surface(surface, nu, nv) - grid, axis=2).max())
+
+
+def fitted_surface(grid: np.ndarray, name: str = "surface") -> Geom_BSplineSurface:
+    """The bicubic with the fewest poles within
+    :data:`~fabpanel.geom.bspline_fit.SURFACE_TOLERANCE` of the point grid ``grid (k, k2, 3)``
+    and of the cubic through it (:func:`~fabpanel.geom.bspline_fit.fit_grid`: a rolled sheet
+    of the demo needs 7 x 4 poles, not 19 x 19; a boundary row in a plane keeps its edge in
+    it), over the unit square with ``grid[i, j]`` at the same uniform parameters as
+    :func:`bspline_surface`; that interpolation where no such fit holds."""
+    fit = fit_grid(grid)
+    if fit is None:
+        return bspline_surface(grid, name)[0]
+    a, b = fit.poles.shape[:2]
+    poles = TColgp_Array2OfPnt(1, a, 1, b)
+    for i in range(a):
+        for j in range(b):
+            poles.SetValue(i + 1, j + 1, gp_Pnt(*map(float, fit.poles[i, j])))
+    knots = []
+    for curve in (fit.u, fit.v):
+        values = Array1_double(1, len(curve.knots))
+        mults = Array1_int(1, len(curve.knots))
+        for i, (k, m) in enumerate(zip(curve.knots, curve.multiplicities, strict=True)):
+            values.SetValue(i + 1, float(k))
+            mults.SetValue(i + 1, int(m))
+        knots.append((values, mults))
+    (uk, um), (vk, vm) = knots
+    try:
+        return Geom_BSplineSurface(poles, uk, vk, um, vm, DEGREE, DEGREE)
+    except Exception as err:  # OCCT raises Standard_Failure subclasses through OCP
+        raise KernelError(f"B-spline surface of {name} failed: {err}") from err
 
 
 def sample_surface(surface: Geom_Surface, a: int, b: int, offset: float = 0.0) -> np.ndarray:

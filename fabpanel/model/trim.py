@@ -15,8 +15,10 @@ samples where the plane lies outside:
    offset 150 mm along noisy normals that cubic swung 60 mm off within 40 mm of the edge and
    sent the corner Newton astray, leaving the edge untrimmed;
 3. fill the parameter square between the four trim curves with a Coons patch, evaluate the
-   surface there and interpolate that grid again: the new surface's boundary rows lie in the
-   planes, and a cubic interpolant of coplanar points stays in their plane (affine invariance).
+   surface there and fit that grid again, with the fewest poles within 0.001 mm of it
+   (:func:`fabpanel.model.occ.fitted_surface`; the cubic through every point where none
+   holds): the new surface's boundary rows lie in the planes, and a cubic interpolant or
+   end-kept least-squares fit of coplanar points stays in their plane (affine invariance).
 
 The fit error reported is the largest distance of the developed samples from the new surface,
 measured across it (the trim moves boundary samples along the surface, reported as the slide).
@@ -130,7 +132,7 @@ def _trimmed_face(
     params = coons(sides, np.linspace(0, 1, n), np.linspace(0, 1, n))
     points, _, _ = continued(source, params.reshape(-1, 2))
     new_grid = points.reshape(n, n, 3)
-    surface, _ = occ.bspline_surface(new_grid, name)
+    surface = occ.fitted_surface(new_grid, name)
     # fit error: the developed samples against the new surface, measured across the source
     # surface (trimming moves the boundary samples along it, by ``slide``). Between the samples
     # the two interpolants of a noisy grid (one from a faceted mesh) differ by up to 0.1 mm,
