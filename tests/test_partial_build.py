@@ -1,8 +1,8 @@
 """One panel that cannot be built: the others are built, checked, cut, nested and analysed.
 
 A 3 x 3 cylinder patch whose centre panel P005 has its developed samples folded back over
-themselves (the sheet solid comes out with a non-positive volume, as a user's P263-BOT did):
-the build stage reports P005 as an error issue and carries on; the joints and corners P005
+themselves (as a user's P263 was: its sheet solid came out with a non-positive volume): the
+build refuses the folded grid before any OCCT work, and the build stage reports P005 as an error issue and carries on; the joints and corners P005
 shares are left out of the checks that need both panels; cut, nest and the exports work on
 the parts there are; the structure stage keeps P005's shell (the panel exists in the design)
 and compares the mass of the built panels only.
@@ -75,13 +75,14 @@ def test_the_bad_panel_is_an_error_issue_and_the_others_are_built(partial, broke
     (issue,) = _not_built(partial)
     assert issue.severity == "error" and issue.item == BAD
     # names the panel, the part and the reason
-    assert BAD in issue.message and f"{BAD}-TOP" in issue.message
-    assert "non-positive volume" in issue.message
+    assert BAD in issue.message and "fold back over themselves" in issue.message
+    # the fold is the columns from the middle one on (cells 4-8 of 8)
+    assert "columns 4-8" in issue.message
     # nothing else is wrong: the joints and corners with P005 were skipped, not mismeasured
     assert [i.code for i in partial.issues] == ["panel-not-built"]
     metrics = partial.metrics
     assert metrics["panels_built"] == 8 and metrics["panels_not_built"] == 1
-    assert list(metrics["not_built"]) == [BAD] and f"{BAD}-TOP" in metrics["not_built"][BAD]
+    assert list(metrics["not_built"]) == [BAD] and "fold" in metrics["not_built"][BAD]
     assert BAD not in metrics["panels"]
     assert metrics["all_valid"] is True
     assert metrics["clash"]["groups"] == 8 and metrics["clash"]["clashes"] == 0
@@ -132,7 +133,7 @@ def test_a_layout_whose_every_panel_fails_still_stops(job):
     one = cylinder_developed(n_arc=1, n_len=1)
     samples = np.array(one.samples, copy=True)
     samples[0, :, 5:] = samples[0, :, 3:4][:, ::-1]
-    with pytest.raises(KernelError, match="no panel could be built.*P001-TOP"):
+    with pytest.raises(KernelError, match="no panel could be built; P001: developed samples of P001 fold"):
         build(dataclasses.replace(one, samples=samples), job, jobs=1)
 
 
@@ -217,3 +218,20 @@ def test_structure_analyses_the_design_and_checks_the_mass_of_the_built_panels(
     assert s["mass"]["not_built_kg"] > 0
     assert "mass-mismatch" not in [i.code for i in structure.issues]
     assert BAD in s["panels"]
+
+
+def test_folded_cells_are_those_that_face_back_or_collapse(good):
+    from fabpanel.model.panel import folded_cells
+
+    samples, normals = good.samples[0], good.normals[0]
+    assert not folded_cells(samples, normals).any()
+    # the grid's own turning sense does not matter: read backwards it is still whole
+    assert not folded_cells(samples[:, ::-1], normals[:, ::-1]).any()
+    folded = np.array(samples, copy=True)
+    folded[:, 5] = samples[:, 3]  # column 5 back onto column 3: cells 4 face back
+    cells = folded_cells(folded, normals)
+    assert cells[:, 4].all() and not np.delete(cells, 4, axis=1).any()
+    collapsed = np.array(samples, copy=True)
+    collapsed[:, 6] = samples[:, 5]
+    cells = folded_cells(collapsed, normals)
+    assert cells[:, 5].all() and cells.sum() == cells.shape[0]

@@ -132,6 +132,37 @@ def _untrimmed_finding(
     return ("sheet-not-trimmed", part, f"{why}; {fix}", "error")
 
 
+def folded_cells(samples: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """(k-1, k-1) bool: the cells of a sample grid ``samples (k, k, 3)`` that face against its
+    ``normals (k, k, 3)`` or have no area (below :data:`FOLDED_AREA` of the median cell's):
+    the grid folds back over itself or collapses there. The cell's vector area is half the
+    cross product of its diagonals, taken against the mean of its four corner normals."""
+    d1 = samples[1:, 1:] - samples[:-1, :-1]
+    d2 = samples[:-1, 1:] - samples[1:, :-1]
+    mean = normals[1:, 1:] + normals[:-1, :-1] + normals[:-1, 1:] + normals[1:, :-1]
+    signed = np.einsum("ijk,ijk->ij", np.cross(d1, d2), mean)
+    signed = signed * np.sign(np.median(signed))  # the grid's own turning sense
+    return signed <= FOLDED_AREA * np.abs(np.median(signed))
+
+
+#: a cell of a developed grid whose area is below this share of the median cell's is collapsed
+FOLDED_AREA = 1e-6
+
+
+def _refuse_folded_grid(payload: PanelPayload) -> None:
+    """Raise :class:`KernelError` where the developed grid folds back over itself or collapses:
+    no sheet can be built through it (OCCT would make a self-overlapping face, or none)."""
+    folded = folded_cells(payload.samples, payload.normals)
+    if folded.any():
+        rows, cols = np.nonzero(folded)
+        raise KernelError(
+            f"developed samples of {payload.panel_id} fold back over themselves or collapse "
+            f"in {int(folded.sum())} of {folded.size} cells (rows {rows.min()}-{rows.max() + 1}, "
+            f"columns {cols.min()}-{cols.max() + 1} of the sample grid): the panel cannot be "
+            "made as one sheet; develop it again (a smaller panel size where it folds)"
+        )
+
+
 def moved_in(planes: np.ndarray, shifts: np.ndarray) -> np.ndarray:
     """(4, 4) float: unit ``planes`` (normals into the panel) moved ``shifts (4,)`` mm in."""
     moved = np.array(planes, float, copy=True)
@@ -154,6 +185,7 @@ def build_panel(payload: PanelPayload, where: list[str] | None = None) -> PanelR
 
     bu = payload.buildup
     interior = np.asarray(payload.interior, bool)
+    _refuse_folded_grid(payload)
     # the ribs stand half the erection gap in from the contact plane, the sheets the set-back
     # further at the joints (boundary sides stay flush: see fabpanel.buildup)
     rib_shift = np.where(interior, bu.welds.erection_gap / 2, 0.0)
