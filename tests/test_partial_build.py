@@ -133,7 +133,9 @@ def test_a_layout_whose_every_panel_fails_still_stops(job):
     one = cylinder_developed(n_arc=1, n_len=1)
     samples = np.array(one.samples, copy=True)
     samples[0, :, 5:] = samples[0, :, 3:4][:, ::-1]
-    with pytest.raises(KernelError, match="no panel could be built; P001: developed samples of P001 fold"):
+    with pytest.raises(
+        KernelError, match="no panel could be built; P001: developed samples of P001 fold"
+    ):
         build(dataclasses.replace(one, samples=samples), job, jobs=1)
 
 

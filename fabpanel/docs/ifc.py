@@ -181,10 +181,11 @@ def solid_geometry(items: list[tuple[str, bytes, float, bool]]) -> list:
     relative, low, high, angle = IFC_RULE
     for name, brep, thickness, flat in items:
         profile = prism_profile(brep, thickness) if flat else None
-        if profile is None:
-            largest = max(low, min(high, SHEET_DEFLECTION * thickness))
-            profile = tessellate_breps([(name, brep)], (relative, low, largest, angle))[0]
-        found.append(profile)
+        if profile is not None:
+            found.append(profile)
+            continue
+        largest = max(low, min(high, SHEET_DEFLECTION * thickness))
+        found.append(tessellate_breps([(name, brep)], (relative, low, largest, angle))[0])
     return found
 
 
