@@ -47,6 +47,12 @@ def rows(out: Path, name: str) -> list[dict]:
         return list(csv.DictReader(handle))
 
 
+@pytest.fixture(scope="module")
+def ifc(run):
+    """The run's IFC re-read and meshed once (:func:`ifc_meshes`: 20 s on the test vault)."""
+    return ifc_meshes(run[0])
+
+
 def ifc_meshes(out: Path):
     """The IFC re-read, and every plate triangulated by ifcopenshell's own geometry kernel
     (whatever its representation: extruded profile or triangulated face set), mm."""
@@ -89,11 +95,11 @@ def test_every_document_is_written_and_listed(run):
         assert (out / name).stat().st_size > 0, name
 
 
-def test_ifc_holds_every_part_with_its_volume_mark_and_panel(run):
+def test_ifc_holds_every_part_with_its_volume_mark_and_panel(run, ifc):
     from ifcopenshell.util import element
 
-    out, manifest = run
-    model, meshes = ifc_meshes(out)
+    _, manifest = run
+    model, meshes = ifc
     assemblies = model.by_type("IfcElementAssembly")
     assert sorted(a.Name for a in assemblies) == sorted(p["id"] for p in manifest["panels"])
     parts = {p["id"]: p for p in manifest["parts"]}
@@ -126,11 +132,11 @@ def test_ifc_passes_the_schema_and_its_rules(run):
     assert logger.statements == []
 
 
-def test_bolts_pair_the_rib_holes_and_are_long_enough(run):
+def test_bolts_pair_the_rib_holes_and_are_long_enough(run, ifc):
     from ifcopenshell.util import element
 
     out, manifest = run
-    model, _ = ifc_meshes(out)
+    model, _ = ifc
     bolts_total = manifest["metrics"]["build"]["bolts_total"]
     fasteners = model.by_type("IfcMechanicalFastener")
     assert len(fasteners) == bolts_total > 0
@@ -185,9 +191,9 @@ def test_a_hole_without_its_partner_takes_no_bolt_and_is_listed(run):
     assert len(lone) == 1 and lone[0][6] == "2" and rib["id"] in lone[0][2]
 
 
-def test_panel_weights_and_centres_of_gravity_match_the_solids(run):
+def test_panel_weights_and_centres_of_gravity_match_the_solids(run, ifc):
     out, manifest = run
-    _, meshes = ifc_meshes(out)
+    _, meshes = ifc
     density = 7850e-9  # kg/mm3
     by_panel: dict[str, list] = {}
     for part in manifest["parts"]:
