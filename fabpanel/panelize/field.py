@@ -47,10 +47,13 @@ from ..units import length_scale
 from .boundary import DesignBoundary
 from .corners import OutlineCorners, outline_corners, small_openings
 from .decompose import oversize_panels
+from .densify import quad_edges
 from .false_corners import dissolve_corners, one_panel_nodes
 from .gate_band import band_measures
 from .gates import (
     CORNER_LIMITS,
+    EDGE_BAND,
+    MIN_BAND_SHARE,
     MIN_EDGE,
     gate_measures,
     layout_score,
@@ -61,6 +64,7 @@ from .lift import FlatMesh, barycentric_weights
 from .punch import PunchFailed, punched
 from .quality import corner_angles, layout_metrics
 from .slide import BoundaryTrack, SlidingNodes
+from .strip_split import split_strip, strips_to_split
 
 log = logging.getLogger(__name__)
 
@@ -110,6 +114,11 @@ FINER_AT_MOST = 1.5
 #: the pavilion (407) each finer mesh placed cost 10 s and none fitted (its trumpets)
 FINER_UP_TO_PANELS = 300
 
+#: strips of overlong panels split in a layout that fails the edge band (:mod:`.strip_split`):
+#: at most this many splits kept, each of the best this many strips placed in turn
+SPLIT_ROUNDS = 3
+SPLIT_TRIES = 2
+
 #: a gmsh run longer than this is stopped (it never takes more than seconds on 5000 panels)
 GMSH_TIMEOUT = 300.0
 
@@ -138,7 +147,7 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     for way, kept, mesher, punches in _ways_with_small_openings(outline, surface, flat, job):
         if best is not None and (
             meets_every_gate(best.measures, min_width, tips_apart=True)
-            or len(best.quads) > SECOND_LAYOUT_UP_TO_PANELS
+            or len(best.placed.mesh.quads) > SECOND_LAYOUT_UP_TO_PANELS
         ):
             break
         if way == "squared" and punched_made:
@@ -155,21 +164,20 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
             longest_edge=min(Buildup.of(job).usable_plate),
         )
         try:
-            vertices, quads, info = _fitted_layout(surface, mesher, domain, job)
+            placed = _fitted_layout(surface, mesher, domain, job)
         except PunchFailed as failed:
             log.info("small openings not punched: %s", failed)
             continue
         punched_made |= way == "punched"
-        measures = gate_measures(_layout(vertices, quads), surface, domain.target)
-        scores[way] = round(layout_score(measures, min_width), 4)
-        if best is None or layout_score(measures, min_width) > layout_score(
-            best.measures, min_width
-        ):
-            info["small_openings"] = way
-            best = _Candidate(vertices, quads, info, measures)
+        scores[way] = round(layout_score(placed.measures, min_width), 4)
+        if best is None or scores[way] > layout_score(best.measures, min_width):
+            placed.info["small_openings"] = way
+            best = _Candidate(placed, domain)
             outline = kept
     assert best is not None
-    vertices, quads, info = best.vertices, best.quads, best.info
+    # the way kept, its overlong strips split where it fails the edge band
+    placed = _with_split_strips(surface, best.domain, job, best.placed)
+    vertices, quads, info = placed.vertices, placed.mesh.quads, placed.info
     info["small_openings_scores"] = scores  # each way made, by the gates' score
     layout = _layout(vertices, _orient_outwards(vertices, quads, query))
     loops3d = [surface.vertices[loop] for loop in surface.boundary_loops]
@@ -209,13 +217,14 @@ def _ways_with_small_openings(
 
 @dataclass(frozen=True)
 class _Candidate:
-    """One way of meshing the outline, placed: its vertices and quads, the report of its
-    making (``metrics["field"]``) and its gate measures."""
+    """One way of meshing the outline, placed, and the domain it was placed on."""
 
-    vertices: np.ndarray
-    quads: np.ndarray
-    info: dict
-    measures: dict
+    placed: _Placed
+    domain: _Domain
+
+    @property
+    def measures(self) -> dict:
+        return self.placed.measures
 
 
 def _layout(vertices: np.ndarray, quads: np.ndarray) -> PanelLayout:
@@ -223,9 +232,7 @@ def _layout(vertices: np.ndarray, quads: np.ndarray) -> PanelLayout:
     return PanelLayout(vertices=vertices, quads=quads, panel_ids=ids, method="field")
 
 
-def _fitted_layout(
-    surface: Surface, mesher: OutlineCorners, domain: _Domain, job: Job
-) -> tuple[np.ndarray, np.ndarray, dict]:
+def _fitted_layout(surface: Surface, mesher: OutlineCorners, domain: _Domain, job: Job) -> _Placed:
     """gmsh's quads of the outline ``mesher`` placed on the surface (the better of two
     topology settings where the first fails, ``TOPOLOGIES``); while a panel misses the plate,
     made again with smaller panels everywhere (module docstring, step 4). A finer mesh of
@@ -255,8 +262,7 @@ def _fitted_layout(
         fitted += [layout for layout in placed if layout.fits]
         size *= PLATE_SHRINK  # some panels miss the plate: smaller panels everywhere
     assert best is not None
-    best = max([best, *fitted], key=lambda p: (p.fits, layout_score(p.measures, min_width)))
-    return best.vertices, best.mesh.quads, best.info
+    return max([best, *fitted], key=lambda p: (p.fits, layout_score(p.measures, min_width)))
 
 
 def _round_of_layouts(
@@ -348,6 +354,52 @@ def _placed(surface: Surface, domain: _Domain, job: Job, meshed: _Meshed) -> _Pl
     mesh, vertices, info["relaxation"], fits = _placed_without_false_corners(domain, mesh, job)
     measures = gate_measures(_layout(vertices, mesh.quads), surface, domain.target)
     return _Placed(vertices, mesh, info, fits, measures)
+
+
+def _with_split_strips(surface: Surface, domain: _Domain, job: Job, placed: _Placed) -> _Placed:
+    """Where a layout of at most ``SECOND_LAYOUT_UP_TO_PANELS`` fails the edge band with edges
+    over its top, the strips holding most of them split in two (:mod:`.strip_split`) and the
+    layout placed again, a split kept where every panel still fits (if it did) and the gates'
+    score rises; up to ``SPLIT_ROUNDS`` splits, each of the ``SPLIT_TRIES`` best strips tried
+    in turn. ``info["split_strips"]`` says what was tried and kept."""
+    target = domain.target
+    min_width = min_panel_width(job)
+    if (
+        placed.measures["edges_in_band"] >= MIN_BAND_SHARE
+        or len(placed.mesh.quads) > SECOND_LAYOUT_UP_TO_PANELS
+    ):
+        return placed
+    best, tried, kept = placed, 0, 0
+    for _ in range(SPLIT_ROUNDS):
+        edges, _ = quad_edges(best.mesh.quads)
+        lengths = np.linalg.norm(best.vertices[edges[:, 0]] - best.vertices[edges[:, 1]], axis=1)
+        better = None
+        for strip in strips_to_split(best.mesh.quads, lengths, target, EDGE_BAND)[:SPLIT_TRIES]:
+            tried += 1
+            split = split_strip(
+                best.mesh.nodes,
+                best.mesh.quads,
+                best.mesh.on_curve,
+                strip,
+                lambda points: domain.track.at(domain.track.locate(points, 0.0)[0])[0],
+            )
+            mesh = _FlatQuads(split.nodes, split.quads, split.on_curve, best.mesh.size)
+            mesh, vertices, relaxation, fits = _placed_without_false_corners(domain, mesh, job)
+            measures = gate_measures(_layout(vertices, mesh.quads), surface, target)
+            if (fits or not best.fits) and layout_score(measures, min_width) > layout_score(
+                best.measures, min_width
+            ):
+                better = _Placed(
+                    vertices, mesh, {**best.info, "relaxation": relaxation}, fits, measures
+                )
+                break
+        if better is None:
+            break
+        best, kept = better, kept + 1
+        if best.measures["edges_in_band"] >= MIN_BAND_SHARE:
+            break
+    best.info["split_strips"] = {"tried": tried, "kept": kept}
+    return best
 
 
 @dataclass(frozen=True)
