@@ -398,7 +398,12 @@ def _with_split_strips(surface: Surface, domain: _Domain, job: Job, placed: _Pla
         best, kept = better, kept + 1
         if best.measures["edges_in_band"] >= MIN_BAND_SHARE:
             break
-    best.info["split_strips"] = {"tried": tried, "kept": kept}
+    best.info["split_strips"] = {
+        "tried": tried,
+        "kept": kept,
+        "panels": [len(placed.mesh.quads), len(best.mesh.quads)],
+        "edges_in_band": [placed.measures["edges_in_band"], best.measures["edges_in_band"]],
+    }
     return best
 
 
