@@ -64,7 +64,7 @@ from .lift import FlatMesh, barycentric_weights
 from .punch import PunchFailed, punched
 from .quality import corner_angles, layout_metrics
 from .slide import BoundaryTrack, SlidingNodes
-from .strip_split import split_strip, strips_to_split
+from .strip_ops import collapse_strip, split_strip, strips_to_collapse, strips_to_split
 
 log = logging.getLogger(__name__)
 
@@ -114,10 +114,11 @@ FINER_AT_MOST = 1.5
 #: the pavilion (407) each finer mesh placed cost 10 s and none fitted (its trumpets)
 FINER_UP_TO_PANELS = 300
 
-#: strips of overlong panels split in a layout that fails the edge band (:mod:`.strip_split`):
-#: at most this many splits kept, each of the best this many strips placed in turn
-SPLIT_ROUNDS = 3
-SPLIT_TRIES = 2
+#: strips split or collapsed in a layout that fails the gates on edge lengths
+#: (:mod:`.strip_ops`): at most this many edits kept, each round placing the best this many
+#: strips of each kind in turn
+STRIP_ROUNDS = 3
+STRIP_TRIES = 2
 
 #: a gmsh run longer than this is stopped (it never takes more than seconds on 5000 panels)
 GMSH_TIMEOUT = 300.0
@@ -175,8 +176,8 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
             best = _Candidate(placed, domain)
             outline = kept
     assert best is not None
-    # the way kept, its overlong strips split where it fails the edge band
-    placed = _with_split_strips(surface, best.domain, job, best.placed)
+    # the way kept, strips split or collapsed where it fails the gates on edge lengths
+    placed = _with_strip_edits(surface, best.domain, job, best.placed)
     vertices, quads, info = placed.vertices, placed.mesh.quads, placed.info
     info["small_openings_scores"] = scores  # each way made, by the gates' score
     layout = _layout(vertices, _orient_outwards(vertices, quads, query))
@@ -356,55 +357,91 @@ def _placed(surface: Surface, domain: _Domain, job: Job, meshed: _Meshed) -> _Pl
     return _Placed(vertices, mesh, info, fits, measures)
 
 
-def _with_split_strips(surface: Surface, domain: _Domain, job: Job, placed: _Placed) -> _Placed:
-    """Where a layout of at most ``SECOND_LAYOUT_UP_TO_PANELS`` fails the edge band with edges
-    over its top, the strips holding most of them split in two (:mod:`.strip_split`) and the
-    layout placed again, a split kept where every panel still fits (if it did) and the gates'
-    score rises; up to ``SPLIT_ROUNDS`` splits, each of the ``SPLIT_TRIES`` best strips tried
-    in turn. ``info["split_strips"]`` says what was tried and kept."""
+def _with_strip_edits(surface: Surface, domain: _Domain, job: Job, placed: _Placed) -> _Placed:
+    """Where a layout of at most ``SECOND_LAYOUT_UP_TO_PANELS`` fails the edge band or the
+    shortest edge, strips split or collapsed (:mod:`.strip_ops`) and the layout placed again,
+    an edit kept where every panel still fits (if it did) and the gates' score rises; up to
+    ``STRIP_ROUNDS`` edits, each round trying the ``STRIP_TRIES`` best strips of each kind (the
+    kind with more edges out of the band first). ``info["strip_edits"]`` says what was tried,
+    refused and kept, with the panels and the share in band before and after."""
     target = domain.target
     min_width = min_panel_width(job)
-    if (
-        placed.measures["edges_in_band"] >= MIN_BAND_SHARE
-        or len(placed.mesh.quads) > SECOND_LAYOUT_UP_TO_PANELS
-    ):
+    if _edges_pass(placed.measures) or len(placed.mesh.quads) > SECOND_LAYOUT_UP_TO_PANELS:
         return placed
-    best, tried, kept = placed, 0, 0
-    for _ in range(SPLIT_ROUNDS):
-        edges, _ = quad_edges(best.mesh.quads)
-        lengths = np.linalg.norm(best.vertices[edges[:, 0]] - best.vertices[edges[:, 1]], axis=1)
+    best = placed
+    report = {"tried": 0, "refused": 0, "split": 0, "collapsed": 0}
+    for _ in range(STRIP_ROUNDS):
         better = None
-        for strip in strips_to_split(best.mesh.quads, lengths, target, EDGE_BAND)[:SPLIT_TRIES]:
-            tried += 1
-            split = split_strip(
-                best.mesh.nodes,
-                best.mesh.quads,
-                best.mesh.on_curve,
-                strip,
-                lambda points: domain.track.at(domain.track.locate(points, 0.0)[0])[0],
-            )
-            mesh = _FlatQuads(split.nodes, split.quads, split.on_curve, best.mesh.size)
+        for kind, edited in _strip_edits(domain, best, report):
+            mesh = _FlatQuads(edited.nodes, edited.quads, edited.on_curve, best.mesh.size)
             mesh, vertices, relaxation, fits = _placed_without_false_corners(domain, mesh, job)
             measures = gate_measures(_layout(vertices, mesh.quads), surface, target)
             if (fits or not best.fits) and layout_score(measures, min_width) > layout_score(
                 best.measures, min_width
             ):
-                better = _Placed(
-                    vertices, mesh, {**best.info, "relaxation": relaxation}, fits, measures
-                )
+                info = {**best.info, "relaxation": relaxation}
+                better = _Placed(vertices, mesh, info, fits, measures)
+                report[kind] += 1
                 break
         if better is None:
             break
-        best, kept = better, kept + 1
-        if best.measures["edges_in_band"] >= MIN_BAND_SHARE:
+        best = better
+        if _edges_pass(best.measures):
             break
-    best.info["split_strips"] = {
-        "tried": tried,
-        "kept": kept,
+    best.info["strip_edits"] = {
+        **report,
         "panels": [len(placed.mesh.quads), len(best.mesh.quads)],
         "edges_in_band": [placed.measures["edges_in_band"], best.measures["edges_in_band"]],
     }
     return best
+
+
+def _edges_pass(measures: dict) -> bool:
+    """Whether a layout passes the two gates on edge lengths (band and shortest edge)."""
+    return (
+        measures["edges_in_band"] >= MIN_BAND_SHARE
+        and measures["shortest_edge_vs_panel_size"] >= MIN_EDGE
+    )
+
+
+def _strip_edits(domain: _Domain, placed: _Placed, report: dict):
+    """The meshes of :func:`_with_strip_edits`'s round, made one by one as the caller asks:
+    ``(kind, EditedMesh)`` with ``kind`` "split" or "collapsed"; refused collapses counted in
+    ``report``. The kind with more edges out of the band on its side comes first."""
+    mesh, target, track = placed.mesh, domain.target, domain.track
+    edges, _ = quad_edges(mesh.quads)
+    lengths = np.linalg.norm(placed.vertices[edges[:, 0]] - placed.vertices[edges[:, 1]], axis=1)
+    splits = strips_to_split(mesh.quads, lengths, target, EDGE_BAND)[:STRIP_TRIES]
+    collapses = strips_to_collapse(mesh.quads, lengths, target, EDGE_BAND)[:STRIP_TRIES]
+    fixed = _fixed_nodes(domain, mesh.nodes)
+    t, on_corner = track.locate(mesh.nodes[mesh.on_curve], CORNER_TOLERANCE * mesh.size)
+    fixed[np.flatnonzero(mesh.on_curve)[on_corner]] = True
+    loop = np.full(len(mesh.nodes), -1)
+    loop[mesh.on_curve] = track.loop_of(t)
+    long_first = np.sum(lengths > EDGE_BAND[1] * target) >= np.sum(lengths < EDGE_BAND[0] * target)
+    kinds = ("split", "collapsed") if long_first else ("collapsed", "split")
+    for kind in kinds:
+        for strip in splits if kind == "split" else collapses:
+            report["tried"] += 1
+            if kind == "split":
+                yield (
+                    kind,
+                    split_strip(
+                        mesh.nodes,
+                        mesh.quads,
+                        mesh.on_curve,
+                        strip,
+                        lambda points: track.at(track.locate(points, 0.0)[0])[0],
+                    ),
+                )
+                continue
+            edited = collapse_strip(
+                mesh.nodes, mesh.quads, mesh.on_curve, strip, fixed, lambda ids: loop[ids]
+            )
+            if edited is None:
+                report["refused"] += 1
+            else:
+                yield kind, edited
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
-"""Strips of overlong panels split in two (fabpanel/panelize/strip_split.py): the split mesh
-on analytic grids (halved crossing edges, valid quads, the same topology), the choice of the
-strip, and a random shape whose layout passes the edge band only with a split."""
+"""Strip operations (fabpanel/panelize/strip_ops.py): splits and collapses on analytic grids
+(halved or removed crossing edges, valid quads, the same topology, the refusals), the choice
+of the strip, and a random shape whose layout passes the edge band only with a split."""
 
 from __future__ import annotations
 
@@ -12,7 +12,12 @@ import numpy as np
 import fabpanel as fp
 from fabpanel.panelize.densify import collect_strips, quad_edges, signed_quad_areas
 from fabpanel.panelize.gates import EDGE_BAND, euler_characteristic, meets_every_gate
-from fabpanel.panelize.strip_split import split_strip, strips_to_split
+from fabpanel.panelize.strip_ops import (
+    collapse_strip,
+    split_strip,
+    strips_to_collapse,
+    strips_to_split,
+)
 
 
 def _grid(widths: list[float], heights: list[float]):
@@ -102,7 +107,7 @@ def test_no_strip_is_chosen_where_halving_makes_more_short_edges_than_it_mends()
     assert strips_to_split(quads, _lengths(nodes, quads), 1000.0, EDGE_BAND) == []
 
 
-def test_a_random_shape_passes_the_edge_band_with_a_strip_split(tmp_path):
+def test_a_random_shape_passes_the_edge_band_with_a_strip_ops(tmp_path):
     # seed 22 of benchmarks/random_shapes.py: a rounded slab with a punched opening, whose
     # layout at 1 m had three rows of 1.45 m on one side (84 % of edges in band, count 0.91)
     path = Path(__file__).resolve().parents[1] / "benchmarks" / "random_shapes.py"
@@ -115,10 +120,56 @@ def test_a_random_shape_passes_the_edge_band_with_a_strip_split(tmp_path):
     )
     job = fp.Job.from_dict({"panelize": {"panel_size": "1 m", "method": "field"}})
     layout = fp.panelize(surface, job)
-    split = layout.metrics["field"]["split_strips"]
-    assert split["kept"] >= 1
+    split = layout.metrics["field"]["strip_edits"]
+    assert split["split"] >= 1
     assert split["edges_in_band"][0] < 0.9 <= split["edges_in_band"][1]
     assert split["panels"][1] > split["panels"][0]
     gates = layout.metrics["gates"]
     assert meets_every_gate(gates, 300.0)
     assert gates["count_ratio"] <= 1.3
+
+
+def test_a_thin_row_is_chosen_and_collapsed_into_its_neighbours():
+    # rows of 1.0, 0.3 and 1.0 m across three 1 m columns: the thin row's verticals are under
+    # the band (0.5 m) and collapsing it leaves two rows of quads
+    nodes, quads, on_curve = _grid([1000.0] * 3, [1000.0, 300.0, 1000.0])
+    lengths = _lengths(nodes, quads)
+    (strip,) = strips_to_collapse(quads, lengths, 1000.0, EDGE_BAND)
+    assert sorted(strip.quads) == [3, 4, 5]
+    fixed = np.zeros(len(nodes), dtype=bool)
+    fixed[[0, 3, 12, 15]] = True  # the outline's corners
+    done = collapse_strip(nodes, quads, on_curve, strip, fixed)
+    assert done is not None
+    assert len(done.quads) == 6 and len(done.nodes) == len(nodes) - 4
+    assert (signed_quad_areas(done.nodes, done.quads) > 0).all()
+    assert np.isclose(signed_quad_areas(done.nodes, done.quads).sum(), 3000.0 * 2300.0)
+    assert euler_characteristic(len(done.nodes), done.quads) == 1
+    # the joined nodes stand half way across the removed row; the ends stay on the outline
+    middle = done.nodes[np.isclose(done.nodes[:, 1], 1150.0)]
+    assert sorted(middle[:, 0]) == [0.0, 1000.0, 2000.0, 3000.0]
+    assert done.on_curve[np.isclose(done.nodes[:, 1], 1150.0)].sum() == 2
+    # a grid with no thin row has nothing to collapse
+    full = _grid([1000.0] * 3, [1000.0] * 3)
+    assert strips_to_collapse(full[1], _lengths(*full[:2]), 1000.0, EDGE_BAND) == []
+
+
+def test_a_collapse_that_would_change_the_layout_is_refused():
+    nodes, quads, on_curve = _grid([1000.0] * 3, [1000.0, 300.0, 1000.0])
+    (strip,) = strips_to_collapse(quads, _lengths(nodes, quads), 1000.0, EDGE_BAND)
+    none = np.zeros(len(nodes), dtype=bool)
+    # two fixed nodes would be made one (both ends of an edge the strip crosses)
+    fixed = np.zeros(len(nodes), dtype=bool)
+    fixed[[5, 9]] = True
+    assert collapse_strip(nodes, quads, on_curve, strip, fixed) is None
+    # an end edge of the strip joins two boundary loops (its nodes at y = 1.0 and 1.3 m): the
+    # loops would become one
+    loops = np.where(nodes[:, 1] < 1100.0, 0, 1)
+    assert collapse_strip(nodes, quads, on_curve, strip, none, lambda ids: loops[ids]) is None
+    # an inner edge of the strip with both ends on the curve (across the domain) is refused
+    across = np.array(on_curve, copy=True)
+    across[[5, 9]] = True
+    assert collapse_strip(nodes, quads, across, strip, none) is None
+    # a one-row grid: taking its only row out leaves nothing
+    one = _grid([1000.0] * 3, [300.0])
+    (row,) = [s for s in collect_strips(one[1])[1] if sorted(s.quads) == [0, 1, 2]]
+    assert collapse_strip(*one, row, np.zeros(8, dtype=bool)) is None
