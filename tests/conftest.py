@@ -123,3 +123,17 @@ def unit_quad_grid(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     interior = np.zeros((n + 1) ** 2, dtype=bool)
     interior[ids[1:-1, 1:-1].ravel()] = True
     return ij.reshape(-1, 2), quads, interior
+
+
+def random_surface(seed: int, tmp_path):
+    """The surface of one seed of ``benchmarks/random_shapes.py`` (metres), written as OBJ."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "random_shapes.py"
+    spec = importlib.util.spec_from_file_location("random_shapes", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    _, vertices, faces = module.random_shape(seed)
+    obj = module.hard_shapes.write_obj(tmp_path / f"random{seed}.obj", vertices, faces)
+    return load_surface(obj, "m")

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import random_surface
 from scipy.spatial import Delaunay
 
 import fabpanel as fp
@@ -185,10 +186,10 @@ def test_auto_keeps_a_field_layout_that_passes_every_gate_without_making_the_oth
 
 
 def test_auto_compares_both_methods_when_the_field_layout_fails_a_gate(tmp_path):
-    # the slab's 0.9 m opening and 1.1 m roundings leave the field layout short of a gate
-    # (punched out, the opening leaves 85 % of the edges in the band: the 4.7 m depth in three
-    # rows of panels on one side of it)
-    layout = fp.panelize(_hard_shape("slab_hole", tmp_path), _job("1 m"))
+    # random seed 17 of benchmarks/random_shapes.py: three openings closer than a panel to
+    # each other leave the field layout short of the edge band (81 %: short edges scattered
+    # over strips right-sized elsewhere, so no strip is split or collapsed)
+    layout = fp.panelize(random_surface(17, tmp_path), _job("1 m"))
     auto = layout.metrics["auto"]
     assert set(auto["scores"]) == {"skeleton", "field"}
     assert auto["chosen"] == layout.method == "field"
@@ -369,18 +370,9 @@ def test_panels_near_the_plate_width_are_brought_onto_it_without_a_smaller_size(
     # 105 panels at 1 m): gmsh's chosen mesh misses the plate, and a plate round
     # (12 % smaller everywhere) would add a third more panels; gmsh's next finer mesh at the
     # asked size fits, placed with the band smoothing holding edges under the plate's width
-    import importlib.util
-
     from fabpanel.panelize.decompose import oversize_panels
 
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "random_shapes.py"
-    spec = importlib.util.spec_from_file_location("random_shapes", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    _, vertices, faces = module.random_shape(19)
-    surface = fp.load_surface(
-        module.hard_shapes.write_obj(tmp_path / "r19.obj", vertices, faces), "m"
-    )
+    surface = random_surface(19, tmp_path)
     job = _job("1.2 m", method="field")
     layout = fp.panelize(surface, job)
     field = layout.metrics["field"]

@@ -4,10 +4,8 @@ of the strip, and a random shape whose layout passes the edge band only with a s
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
+from conftest import random_surface
 
 import fabpanel as fp
 from fabpanel.panelize.densify import collect_strips, quad_edges, signed_quad_areas
@@ -110,14 +108,7 @@ def test_no_strip_is_chosen_where_halving_makes_more_short_edges_than_it_mends()
 def test_a_random_shape_passes_the_edge_band_with_a_strip_ops(tmp_path):
     # seed 22 of benchmarks/random_shapes.py: a rounded slab with a punched opening, whose
     # layout at 1 m had three rows of 1.45 m on one side (84 % of edges in band, count 0.91)
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "random_shapes.py"
-    spec = importlib.util.spec_from_file_location("random_shapes", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    _, vertices, faces = module.random_shape(22)
-    surface = fp.load_surface(
-        module.hard_shapes.write_obj(tmp_path / "r22.obj", vertices, faces), "m"
-    )
+    surface = random_surface(22, tmp_path)
     job = fp.Job.from_dict({"panelize": {"panel_size": "1 m", "method": "field"}})
     layout = fp.panelize(surface, job)
     split = layout.metrics["field"]["strip_edits"]
