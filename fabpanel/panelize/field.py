@@ -47,7 +47,7 @@ from ..units import length_scale
 from .boundary import DesignBoundary
 from .corners import OutlineCorners, outline_corners, small_openings
 from .decompose import oversize_panels
-from .densify import quad_edges
+from .densify import Strip, quad_edges
 from .false_corners import dissolve_corners, one_panel_nodes
 from .gate_band import band_measures
 from .gates import (
@@ -64,7 +64,13 @@ from .lift import FlatMesh, barycentric_weights
 from .punch import PunchFailed, punched
 from .quality import corner_angles, layout_metrics
 from .slide import BoundaryTrack, SlidingNodes
-from .strip_ops import collapse_strip, split_strip, strips_to_collapse, strips_to_split
+from .strip_ops import (
+    EditedMesh,
+    collapse_strip,
+    split_strip,
+    strips_to_collapse,
+    strips_to_split,
+)
 
 log = logging.getLogger(__name__)
 
@@ -419,29 +425,23 @@ def _strip_edits(domain: _Domain, placed: _Placed, report: dict):
     loop = np.full(len(mesh.nodes), -1)
     loop[mesh.on_curve] = track.loop_of(t)
     long_first = np.sum(lengths > EDGE_BAND[1] * target) >= np.sum(lengths < EDGE_BAND[0] * target)
-    kinds = ("split", "collapsed") if long_first else ("collapsed", "split")
-    for kind in kinds:
+
+    def edited(kind: str, strip: Strip) -> EditedMesh | None:
+        if kind == "split":
+            on_track = lambda points: track.at(track.locate(points, 0.0)[0])[0]
+            return split_strip(mesh.nodes, mesh.quads, mesh.on_curve, strip, on_track)
+        return collapse_strip(
+            mesh.nodes, mesh.quads, mesh.on_curve, strip, fixed, lambda ids: loop[ids]
+        )
+
+    for kind in ("split", "collapsed") if long_first else ("collapsed", "split"):
         for strip in splits if kind == "split" else collapses:
             report["tried"] += 1
-            if kind == "split":
-                yield (
-                    kind,
-                    split_strip(
-                        mesh.nodes,
-                        mesh.quads,
-                        mesh.on_curve,
-                        strip,
-                        lambda points: track.at(track.locate(points, 0.0)[0])[0],
-                    ),
-                )
-                continue
-            edited = collapse_strip(
-                mesh.nodes, mesh.quads, mesh.on_curve, strip, fixed, lambda ids: loop[ids]
-            )
-            if edited is None:
+            made = edited(kind, strip)
+            if made is None:
                 report["refused"] += 1
             else:
-                yield kind, edited
+                yield kind, made
 
 
 @dataclass(frozen=True)

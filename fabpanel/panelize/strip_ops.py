@@ -45,12 +45,11 @@ from .gates import euler_characteristic
 @dataclass(frozen=True)
 class EditedMesh:
     """A flat quad mesh with one strip split or collapsed: ``nodes`` (n, 2), ``quads`` (m, 4),
-    ``on_curve`` (n,) bool, and the strip's quads before (``split`` their ids)."""
+    ``on_curve`` (n,) bool."""
 
     nodes: np.ndarray
     quads: np.ndarray
     on_curve: np.ndarray
-    split: np.ndarray
 
 
 def strips_to_split(
@@ -62,19 +61,40 @@ def strips_to_split(
     crossing edge first on a tie. ``lengths`` (e,) are the edges' lengths on the surface, in the
     order of :func:`~fabpanel.panelize.densify.quad_edges`. Strips that cross a quad twice are
     left out."""
+    top, halved_short = band[1] * target, 2 * band[0] * target
+    return _ranked(
+        quads,
+        lengths,
+        lambda crossing: (
+            np.count_nonzero(crossing > top) - np.count_nonzero(crossing < halved_short)
+        ),
+        longest_first=True,
+    )
+
+
+def _ranked(
+    quads: np.ndarray,
+    lengths: np.ndarray,
+    gain: Callable[[np.ndarray], int | np.integer],
+    longest_first: bool,
+) -> list[Strip]:
+    """The strips of ``quads`` with a positive ``gain`` of their crossing edges' lengths, the
+    largest gain first, then by the mean crossing edge (longest or shortest first), then in
+    :func:`~fabpanel.panelize.densify.collect_strips`' order; strips that cross a quad twice
+    left out."""
     edges, _ = quad_edges(quads)
     index = {(int(a), int(b)): i for i, (a, b) in enumerate(edges)}
     _, strips = collect_strips(quads)
     ranked: list[tuple[int, float, int]] = []
+    sign = -1.0 if longest_first else 1.0
     for number, strip in enumerate(strips):
         if len(set(strip.quads)) < len(strip.quads):
             continue
         crossing = lengths[[index[edge] for edge in strip.edges]]
-        overlong = int(np.count_nonzero(crossing > band[1] * target))
-        gain = overlong - int(np.count_nonzero(crossing < 2 * band[0] * target))
-        if gain > 0:
-            ranked.append((gain, float(crossing.mean()), number))
-    ranked.sort(key=lambda item: (-item[0], -item[1], item[2]))
+        value = int(gain(crossing))
+        if value > 0:
+            ranked.append((-value, sign * float(crossing.mean()), number))
+    ranked.sort()
     return [strips[number] for _, _, number in ranked]
 
 
@@ -114,7 +134,6 @@ def split_strip(
         nodes=np.vstack([nodes, middles]),
         quads=np.vstack([kept, np.asarray(added, np.int64).reshape(-1, 4)]),
         on_curve=np.concatenate([np.asarray(on_curve, bool), boundary]),
-        split=np.asarray(strip.quads, np.int64),
     )
 
 
@@ -141,20 +160,13 @@ def strips_to_collapse(
     the band's bottom (``band[0] x target``) than edges of at least ``band[0] x target``
     (whose width the neighbours would take on), ranked by that difference, the shortest mean
     crossing edge first on a tie. ``lengths`` as :func:`strips_to_split` takes them."""
-    ranked: list[tuple[int, float, int]] = []
-    edges, _ = quad_edges(quads)
-    index = {(int(a), int(b)): i for i, (a, b) in enumerate(edges)}
-    _, strips = collect_strips(quads)
-    for number, strip in enumerate(strips):
-        if len(set(strip.quads)) < len(strip.quads):
-            continue
-        crossing = lengths[[index[edge] for edge in strip.edges]]
-        short = int(np.count_nonzero(crossing < band[0] * target))
-        gain = short - (len(crossing) - short)
-        if gain > 0:
-            ranked.append((gain, float(crossing.mean()), number))
-    ranked.sort(key=lambda item: (-item[0], item[1], item[2]))
-    return [strips[number] for _, _, number in ranked]
+    bottom = band[0] * target
+    return _ranked(
+        quads,
+        lengths,
+        lambda crossing: 2 * np.count_nonzero(crossing < bottom) - len(crossing),
+        longest_first=False,
+    )
 
 
 def collapse_strip(
@@ -171,7 +183,7 @@ def collapse_strip(
     curve only for the strip's two end edges, which lie on the outline). ``loop_of`` gives the
     boundary loop of on-curve nodes ((k,) ids -> (k,) loop numbers); where given, an edge
     whose two ends lie on different loops is refused even at a strip's end. Nodes are
-    renumbered (the unused dropped, order kept); ``split`` holds the strip's quads."""
+    renumbered (the unused dropped, order kept)."""
     nodes = np.asarray(nodes, float)
     quads = np.asarray(quads, np.int64)
     on_curve = np.asarray(on_curve, bool)
@@ -208,11 +220,11 @@ def collapse_strip(
     keep = np.ones(len(quads), dtype=bool)
     keep[strip.quads] = False
     remaining = root[quads[keep]]
-    return _checked(merged, remaining, merged_on_curve, quads, strip)
+    return _checked(merged, remaining, merged_on_curve, quads)
 
 
 def _checked(
-    nodes: np.ndarray, quads: np.ndarray, on_curve: np.ndarray, before: np.ndarray, strip: Strip
+    nodes: np.ndarray, quads: np.ndarray, on_curve: np.ndarray, before: np.ndarray
 ) -> EditedMesh | None:
     """The collapsed mesh renumbered, or None where it is not a valid quad layout of the same
     topology as ``before`` (the quads before the collapse)."""
@@ -236,4 +248,4 @@ def _checked(
         len(np.unique(before)), before
     ):
         return None
-    return EditedMesh(nodes, quads, on_curve, np.asarray(strip.quads, np.int64))
+    return EditedMesh(nodes, quads, on_curve)
