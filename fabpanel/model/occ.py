@@ -62,7 +62,15 @@ from OCP.TopLoc import TopLoc_Location
 from OCP.TopoDS import TopoDS, TopoDS_Shape
 
 from ..errors import KernelError
-from ..geom.bspline_fit import DEGREE, CubicFit, fit_cubic, fit_grid, fit_loop
+from ..geom.bspline_fit import (
+    DEGREE,
+    LOOP_TOLERANCE,
+    LOOSE_LOOP_TOLERANCE,
+    CubicFit,
+    fit_cubic,
+    fit_grid,
+    fit_loop,
+)
 from ..surface.brep import brep_to_shape, shape_to_brep
 
 #: tolerance of faces made from fitted surfaces, mm (OCCT's default Precision::Confusion is 1e-7)
@@ -322,7 +330,8 @@ def _hole_edges(
     has the poles of one curve twice and its rulings join points i: cubics fitted within
     :data:`~fabpanel.geom.bspline_fit.LOOP_TOLERANCE` with double knots where the outline's
     straight runs meet its rounds (:func:`~fabpanel.geom.bspline_fit.fit_loop`: a slot's 53
-    points become 26 poles), or, where no such fit holds, periodic cubics through every point.
+    points become 26 poles), else within ``LOOSE_LOOP_TOLERANCE`` (a merged opening's 126
+    points, 48 poles), or, where no such fit holds, periodic cubics through every point.
     OCCT's own 3D curve of a p-curve (``BuildCurves3d``) came out at degree 14 with 400-2000
     poles, and the ruled wall between two of them with up to 8600: two thirds of a STEP file."""
     points = [surface_points(s, loop[:, 0], loop[:, 1]) for s, loop in zip(surfaces, loops)]
@@ -332,7 +341,10 @@ def _hole_edges(
     for surface, loop in zip(surfaces, loops):
         _, du, dv = surface_derivatives(surface, loop)
         scales.append(np.c_[np.linalg.norm(du, axis=1), np.linalg.norm(dv, axis=1)])
-    fit = fit_loop([points[0], points[1], *loops], steps, scales)
+    sets = [points[0], points[1], *loops]
+    fit = fit_loop(sets, steps, scales, LOOP_TOLERANCE)
+    if fit is None:
+        fit = fit_loop(sets, steps, scales, LOOSE_LOOP_TOLERANCE)
     if fit is None:
         curves = _interpolated_loops(loops, points, steps, name)
     else:
