@@ -187,3 +187,13 @@ def test_the_buckling_mesh_study_refines_until_the_factor_settles_or_the_budget_
     study, issues = buckling_convergence(first_at, 2, 15.0, lambda k: k <= 4)
     assert [r["per_side"] for r in study["table"]] == [1, 2, 3, 4] and not study["converged"]
     assert issues[0].code == "buckling-not-converged" and "3 to 4" in issues[0].message
+    # the check, the progress line and the report use the smallest factor found, and name the
+    # main run's beside it
+    from fabpanel.structure.analysis import checked_factor
+    from fabpanel.structure.convergence import buckling_text
+
+    checked = checked_factor(15.0, study)
+    assert checked == pytest.approx(11.25)
+    summary = {"first": 15.0, "checked": checked, "convergence": study, "required": 6.0}
+    assert buckling_text(summary) == "11.25 (finer mesh of the study; 15.00 at 2 per side)"
+    assert buckling_text({**summary, "checked": 15.0}) == "15.00"

@@ -8,6 +8,7 @@ import io
 from collections import Counter
 from pathlib import Path
 
+from ..structure.convergence import buckling_text
 from .blocks import (
     Block,
     Figure,
@@ -193,7 +194,7 @@ def _structure_verdict(structure: dict) -> Verdict:
     lines: tuple[str, ...] = (
         f"von Mises utilisation {number(s['utilisation'])} at {s['part']} ({s['combination']})",
         f"deflection {number(d['max_mm'])} mm = {d['ratio']} (limit {number(d['limit_mm'])} mm)",
-        f"buckling factor {number(b['first'])} (required {number(b['required'])})",
+        f"buckling factor {buckling_text(b)} (required {number(b['required'])})",
     )
     forming = structure.get("forming", {})
     if forming.get("sprung"):

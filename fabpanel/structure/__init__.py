@@ -11,6 +11,7 @@ benchmarks in ``tests/test_structure.py``.
 from .analysis import Structure, analyse, choose_divisions, element_counts, shell_of
 from .cases import load_cases
 from .ccx import CcxMissing, LoadCase, find_ccx, read_dat, read_frd, run_ccx, write_deck
+from .convergence import buckling_text
 from .loads import area_forces, edge_forces, gravity_forces, wind_exposed
 from .mesh import Material, ShellGroup, ShellModel, patch_model, sandwich_model
 
@@ -20,11 +21,12 @@ def describe(structure: Structure) -> str:
     s = structure.summary
     if not structure.analysed:
         return f"not analysed: {s['reason']}"
-    gnia = s["buckling"].get("gnia")
+    b = s["buckling"]
+    gnia = b.get("gnia")
     return (
         f"{element_counts(s['mesh'])}, utilisation {s['stress']['utilisation']:.2f}, "
-        f"deflection {s['deflection']['ratio']}, buckling factor "
-        f"{s['buckling']['first']:.2f} (>= {s['buckling']['required']:.3g})"
+        f"deflection {s['deflection']['ratio']}, buckling factor {buckling_text(b)} "
+        f"(>= {b['required']:.3g})"
         + (f", GNIA {gnia['factor']:.2f} (>= {gnia['required']:g})" if gnia else "")
         + f": {'ok' if s['ok'] else 'check failed'}"
     )

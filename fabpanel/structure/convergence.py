@@ -71,3 +71,15 @@ def buckling_convergence(
             )
         )
     return summary, issues
+
+
+def buckling_text(buckling: dict) -> str:
+    """The first buckling factor the check uses, and the main run's where the mesh study found
+    a lower one at a finer mesh: "19.30 (finer mesh of the study; 21.75 at 4 per side)"."""
+    first, checked = buckling["first"], buckling.get("checked", buckling["first"])
+    if checked >= first:
+        return f"{first:.2f}"
+    table = buckling.get("convergence", {}).get("table", [])
+    main = next((r["per_side"] for r in table if r["first"] == first), None)
+    at = f" at {main} per side" if main is not None else ""
+    return f"{checked:.2f} (finer mesh of the study; {first:.2f}{at})"
