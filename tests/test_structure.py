@@ -640,14 +640,46 @@ def test_barrel_vault_example_reactions_equal_loads_and_mass_equals_parts(vault_
     stems = ["static"] if decks == 1 else [f"static-{k + 1}" for k in range(decks)]
     # the .frd is dropped once read (keep_results); the decks and .dat stay
     names = [f"{stem}.{ext}" for stem in stems for ext in ("inp", "dat")]
-    for name in [*names, "buckle.inp", "buckle.dat"]:
+    for name in [*names, "buckle.inp", "buckle.dat", "model.inp"]:
         assert (folder / name).is_file() and f"structure/{name}" in s["files"]
+    # one copy of the mesh: the static decks and the buckling deck read model.inp
+    for name in [f"{stem}.inp" for stem in stems] + ["buckle.inp"]:
+        text = (folder / name).read_text()
+        assert "*INCLUDE, INPUT=model.inp" in text and "*NODE, NSET" not in text
+    assert (folder / "model.inp").read_text().count("*NODE, NSET=NALL") == 1
     assert structure.displacement.shape == structure.shell.nodes.shape
     json.dumps(s)
 
 
 # --------------------------------------------------------------------------------------------
 # without CalculiX
+def test_decks_share_their_model_data_unless_it_is_another_models(tmp_path):
+    """Decks of one model read one model file (``*INCLUDE``); a deck of another model finding
+    that name taken by different data keeps its own inline, and the first deck of an analysis
+    replaces a stale one."""
+    steel = Material()
+    points = np.stack(
+        np.meshgrid(np.linspace(0, 800, 5), np.linspace(0, 600, 5), indexing="ij"), -1
+    )
+    flat = np.concatenate([points, np.zeros((5, 5, 1))], axis=-1)
+    model, _ = patch_model(flat, 3.0, steel)
+    other, _ = patch_model(flat + [0.0, 0.0, 10.0], 3.0, steel)
+    case = [LoadCase("G", gravity=np.array([0.0, 0.0, -9810.0]))]
+    a = write_deck(model, tmp_path / "a.inp", case, shared_model="model.inp", replace_shared=True)
+    b = write_deck(model, tmp_path / "b.inp", case, shared_model="model.inp")
+    c = write_deck(other, tmp_path / "c.inp", case, shared_model="model.inp")
+    shared = (tmp_path / "model.inp").read_text()
+    assert "*INCLUDE, INPUT=model.inp" in a.read_text() and "*NODE, NSET" not in a.read_text()
+    assert "*INCLUDE, INPUT=model.inp" in b.read_text()
+    assert "*INCLUDE" not in c.read_text() and "*NODE, NSET=NALL" in c.read_text()
+    assert (tmp_path / "model.inp").read_text() == shared  # c left it alone
+    # inlined or shared, the deck's text is the same model
+    alone = write_deck(model, tmp_path / "alone.inp", case).read_text()
+    assert alone == a.read_text().replace("*INCLUDE, INPUT=model.inp\n", shared)
+    write_deck(other, tmp_path / "d.inp", case, shared_model="model.inp", replace_shared=True)
+    assert (tmp_path / "model.inp").read_text() != shared
+
+
 # --------------------------------------------------------------------------------------------
 def test_missing_ccx_is_reported_or_raised(cylinder_model, monkeypatch, tmp_path):
     job, model = cylinder_model

@@ -20,6 +20,7 @@ from ..errors import Issue
 from . import ccx
 from .checks import mode_extent, panel_labels
 from .mesh import ShellModel
+from .static import MODEL
 
 #: fewer elements per panel side than this cannot resolve a sheet's local buckling between its
 #: ribs (one half-wave per panel; S8R plates need about 4 per half-wave for a few per cent)
@@ -56,13 +57,15 @@ class Buckling:
 
 
 def buckle_deck(shell, case, folder: Path, modes: int, stem: str = "buckle") -> Path:
-    """Write the ``*BUCKLE`` deck of ``case`` asking ``modes`` (``folder/stem.inp``)."""
+    """Write the ``*BUCKLE`` deck of ``case`` asking ``modes`` (``folder/stem.inp``); the main
+    one reads the static decks' model data (:data:`.static.MODEL`) where it is the same."""
     return ccx.write_deck(
         shell,
         folder / f"{stem}.inp",
         buckle=case,
         modes=modes,
         title=f"fabpanel buckling under {case.name}",
+        shared_model=MODEL if stem == "buckle" else None,
     )
 
 

@@ -190,13 +190,22 @@ def write_deck(
     modes: int = 10,
     title: str = "fabpanel",
     nonlinear: NonlinearStep | None = None,
+    shared_model: str | None = None,
+    replace_shared: bool = False,
 ) -> Path:
     """Write a CalculiX deck: the mesh, sections, supports, one ``*STATIC`` step per case,
     optionally one ``*BUCKLE`` step with ``modes`` factors and optionally one geometrically
-    nonlinear step. Node and element numbers are the model's indices + 1. Returns ``path``."""
+    nonlinear step. Node and element numbers are the model's indices + 1. Returns ``path``.
+
+    shared_model : a file name beside ``path`` for the model data (everything before the first
+        step), which the deck reads with ``*INCLUDE``: the decks of one model share it (the
+        demo's two static decks and its buckling deck held three copies of a 3.4 MB mesh). It
+        is written where it is missing or ``replace_shared`` (the first deck of an analysis);
+        where it holds another model's data the deck keeps its own model data inline."""
     path = Path(path)
     nq = len(model.quads)
-    out: list[str] = [f"** {title}: written by fabpanel (units N, mm, t, s)"]
+    header = f"** {title}: written by fabpanel (units N, mm, t, s)"
+    out: list[str] = []
     out.append("*NODE, NSET=NALL")
     out.append(
         "\n".join(f"{i + 1}, {x:.9g}, {y:.9g}, {z:.9g}" for i, (x, y, z) in enumerate(model.nodes))
@@ -254,6 +263,11 @@ def write_deck(
     for c, (_, dofs) in enumerate(model.constraints):
         out += [f"NFIX{c}, {d}, {d}" for d in dofs]
     lumped_nodes = np.nonzero(lumped_mass)[0] if lumped_mass is not None else np.zeros(0, int)
+    text = "\n".join(out) + "\n"
+    if shared_model is not None and _shared(path.parent / shared_model, text, replace_shared):
+        out = [header, f"*INCLUDE, INPUT={shared_model}"]
+    else:
+        out.insert(0, header)
 
     def loads(case: LoadCase) -> list[str]:
         lines = ["*DLOAD, OP=NEW"]
@@ -301,6 +315,15 @@ def write_deck(
         out += ["*NODE PRINT, NSET=NMON", "U", "*END STEP"]
     path.write_text("\n".join(out) + "\n")
     return path
+
+
+def _shared(path: Path, text: str, replace: bool) -> bool:
+    """Whether the shared model file ``path`` holds ``text``, written first where it is
+    missing or ``replace`` is set."""
+    if replace or not path.is_file():
+        path.write_text(text)
+        return True
+    return path.read_text() == text
 
 
 def _tie_cards(ties) -> list[str]:

@@ -27,6 +27,9 @@ MEMORY_BASE_MB = 150.0
 MEMORY_PER_KNOT_MB = 0.34
 #: split only while the processes' estimate stays within this share of the total memory
 MEMORY_SHARE = 0.5
+#: the model data the static decks and the buckling deck of the analysed mesh read
+#: (``*INCLUDE``): one copy of the mesh in the output folder, not one a deck
+MODEL = "model.inp"
 
 
 @dataclass(frozen=True)
@@ -79,14 +82,28 @@ def run_static(
 
     decks = deck_count(shell, len(cases), threads, psutil.virtual_memory().total / 2**20)
     if decks == 1:
-        paths = [ccx.write_deck(shell, folder / "static.inp", cases, title="fabpanel static")]
+        paths = [
+            ccx.write_deck(
+                shell,
+                folder / "static.inp",
+                cases,
+                title="fabpanel static",
+                shared_model=MODEL,
+                replace_shared=True,
+            )
+        ]
         runs = [ccx.run_ccx(paths[0], threads, timeout, executable)]
     else:
         size = math.ceil(len(cases) / decks)
         chunks = [cases[k : k + size] for k in range(0, len(cases), size)]
         paths = [
             ccx.write_deck(
-                shell, folder / f"static-{k + 1}.inp", chunk, title=f"fabpanel static {k + 1}"
+                shell,
+                folder / f"static-{k + 1}.inp",
+                chunk,
+                title=f"fabpanel static {k + 1}",
+                shared_model=MODEL,
+                replace_shared=k == 0,
             )
             for k, chunk in enumerate(chunks)
         ]
