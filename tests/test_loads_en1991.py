@@ -189,8 +189,7 @@ def test_the_buckling_mesh_study_refines_until_the_factor_settles_or_the_budget_
     assert issues[0].code == "buckling-not-converged" and "3 to 4" in issues[0].message
     # the check, the progress line and the report use the smallest factor found, and name the
     # main run's beside it
-    from fabpanel.structure.analysis import checked_factor
-    from fabpanel.structure.convergence import buckling_text
+    from fabpanel.structure.convergence import buckling_text, checked_factor
 
     checked = checked_factor(15.0, study)
     assert checked == pytest.approx(11.25)

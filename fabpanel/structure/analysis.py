@@ -59,7 +59,7 @@ from .checks import (
     span_of,
 )
 from .connectors import JointBolts, attach
-from .convergence import MAX_REFINEMENTS, buckling_convergence
+from .convergence import MAX_REFINEMENTS, buckling_convergence, checked_factor
 from .forming import sprung_sheet_findings
 from .gnia import gnia
 from .mesh import ShellModel, sandwich_model, sandwich_settings
@@ -213,13 +213,6 @@ def _sheet_edge_nodes(shell, developed, sides, n) -> np.ndarray:
     pts = np.concatenate([developed.side_samples(p, s) for p, s in sides])
     d, idx = cKDTree(shell.nodes).query(pts)
     return np.unique(idx[d < 0.5 * float(np.ptp(shell.nodes, axis=0).max()) / max(n, 1)])
-
-
-def checked_factor(first: float, convergence: dict) -> float:
-    """The first buckling factor the check uses: the main run's, or the mesh study's smallest
-    where a size of the study found a lower one (a factor not yet converged falls as the mesh is
-    refined, :mod:`.convergence`)."""
-    return min(first, convergence.get("smallest", first))
 
 
 def _study_deck(model, job, governing, k: int, folder: Path) -> Path:

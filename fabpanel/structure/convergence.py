@@ -73,6 +73,12 @@ def buckling_convergence(
     return summary, issues
 
 
+def checked_factor(first: float, convergence: dict) -> float:
+    """The first buckling factor the check uses: the main run's, or the study's smallest where
+    a finer size found a lower one (a factor not yet converged falls as the mesh is refined)."""
+    return min(first, convergence.get("smallest", first))
+
+
 def buckling_text(buckling: dict) -> str:
     """The first buckling factor the check uses, and the main run's where the mesh study found
     a lower one at a finer mesh: "19.30 (finer mesh of the study; 21.75 at 4 per side)"."""
