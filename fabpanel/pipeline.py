@@ -427,6 +427,8 @@ def _write_files(result: Result, folder: Path, progress: Progress, workers: int)
         laps[part] = now - lap
         lap = now
 
+    writes_docs = job.docs.write and result.model is not None and result.flat is not None
+    solids = None
     if result.model is not None:
         from .model import write_glb, write_panel_steps, write_step_assembly
 
@@ -437,17 +439,19 @@ def _write_files(result: Result, folder: Path, progress: Progress, workers: int)
         if job.output.step and job.output.step_per_panel:
             (folder / "model" / "panels").mkdir(parents=True)
             note(write_panel_steps(result.model, folder / "model" / "panels"), "model/panels")
-        meshes = None
-        if job.output.glb or job.output.rhino:
-            from .model.export import preview_meshes
-
-            meshes = preview_meshes(result.model, workers)
         if job.output.glb:
-            write_glb(result.model, folder / "model" / "preview.glb", workers, meshes)
+            write_glb(result.model, folder / "model" / "preview.glb", workers)
+        if job.output.rhino or writes_docs:
+            from .docs.ifc import solid_geometries
+
+            # the IFC's and the 3DM's solids: made once, here, for both
+            solids = solid_geometries(
+                [(p.id, p.brep, p.thickness, p.kind) for p in result.model.parts], workers
+            )
         if job.output.rhino:
             from .model.rhino import write_3dm
 
-            write_3dm(result.model, folder / "model" / "design.3dm", meshes)
+            write_3dm(result.model, folder / "model" / "design.3dm", solids)
         done("model")
     if result.flat is not None and result.nests is not None and job.output.dxf:
         (folder / "cut" / "parts").mkdir(parents=True)
@@ -461,11 +465,13 @@ def _write_files(result: Result, folder: Path, progress: Progress, workers: int)
 
     manifest = build_manifest(result, files)
     source = None
-    if job.docs.write and result.model is not None and result.flat is not None:
+    if writes_docs and result.model is not None:
         from .docs import DocSource, write_docs
 
         source = DocSource.from_manifest(manifest)
-        documents = write_docs(source, folder, {p.id: p.brep for p in result.model.parts}, workers)
+        documents = write_docs(
+            source, folder, {p.id: p.brep for p in result.model.parts}, workers, solids
+        )
         manifest["documents"] = sorted(str(p.relative_to(folder)) for p in documents)
         done("docs")
     (folder / "manifest.json").write_text(json.dumps(manifest, indent=1, default=_json_default))

@@ -303,6 +303,20 @@ def test_step_assembly_round_trip(model, tmp_path):
     import trimesh
 
     scene = trimesh.load(glb)
+    # a part's tessellation has few vertices: its indices are 16-bit (fabpanel.model.glb)
+    import json
+    import struct
+
+    from fabpanel.model.glb import UINT16
+
+    data = glb.read_bytes()
+    document = json.loads(data[20 : 20 + struct.unpack_from("<I", data, 12)[0]])
+    index_types = {
+        document["accessors"][p["indices"]]["componentType"]
+        for m in document["meshes"]
+        for p in m["primitives"]
+    }
+    assert index_types == {UINT16}
     # one named mesh per part, each under its panel's node
     assert sorted(scene.geometry) == sorted(p.id for p in model.parts)
     for part in model.parts:
@@ -425,9 +439,10 @@ def test_kernel_error_names_the_part():
 def test_design_3dm_holds_exact_panel_surfaces_and_layers(model, developed, tmp_path):
     import rhino3dm
 
-    from fabpanel.model.export import preview_meshes
+    from fabpanel.docs.ifc import solid_geometries
 
-    path = write_3dm(model, tmp_path / "design.3dm", preview_meshes(model))
+    solids = solid_geometries([(p.id, p.brep, p.thickness, p.kind) for p in model.parts])
+    path = write_3dm(model, tmp_path / "design.3dm", solids)
     doc = rhino3dm.File3dm.Read(str(path))
     assert doc.Settings.ModelUnitSystem == rhino3dm.UnitSystem.Millimeters
     layers = [layer.Name for layer in doc.Layers]
@@ -454,17 +469,48 @@ def test_design_3dm_holds_exact_panel_surfaces_and_layers(model, developed, tmp_
                 [point.X, point.Y, point.Z], developed.samples[p, i, j], atol=1e-6
             )
     assert sorted(dot.Geometry.Text for dot in by_layer["labels"]) == list(developed.panel_ids)
-    # every part's solid as a closed mesh of its volume, on its kind's layer
-    volumes = {p.id: p.volume for p in model.parts}
-    solids = [o for name, objs in by_layer.items() if name.startswith("solids") for o in objs]
-    assert sorted(o.Attributes.Name for o in solids) == sorted(volumes)
-    for obj in solids:
-        mesh = obj.Geometry
-        vertices = np.array([[v.X, v.Y, v.Z] for v in mesh.Vertices.ToPoint3dArray()])
-        faces = np.array([list(mesh.Faces[i])[:3] for i in range(mesh.Faces.Count)])
+    # every part's solid on its kind's layer: a flat plate an exact, closed extrusion of its
+    # profile and holes, a sheet a closed mesh of its volume
+    from scipy.spatial import cKDTree
+
+    origin_3dm = np.asarray(model.developed.layout.origin, dtype=float)
+    by_id = {p.id: p for p in model.parts}
+    solids_3dm = [o for name, objs in by_layer.items() if name.startswith("solids") for o in objs]
+    assert sorted(o.Attributes.Name for o in solids_3dm) == sorted(by_id)
+    kinds = set()
+    for obj in solids_3dm:
+        part, shape = by_id[obj.Attributes.Name], obj.Geometry
+        kinds.add((part.kind, type(shape).__name__))
+        if isinstance(shape, rhino3dm.Extrusion):
+            profile = solids[part.id]
+            assert shape.IsValid and shape.IsSolid and shape.CapCount == 2
+            assert shape.ProfileCount == 1 + len(profile.inner)
+            # each profile (outer, then the holes) at both ends of the path is the plate's
+            # outline in place: its vertices are the profile's, in the design's frame
+            y_axis = np.cross(profile.z_axis, profile.x_axis)
+            for i, loop in enumerate((profile.outer, *profile.inner)):
+                for s_end, shift in ((0.0, 0.0), (1.0, profile.depth)):
+                    curve = shape.Profile3d(i, s_end)
+                    got = np.array(
+                        [[q.X, q.Y, q.Z] for q in map(curve.Point, range(curve.PointCount))]
+                    )
+                    want = (
+                        origin_3dm
+                        + profile.origin
+                        + loop[:, :1] * profile.x_axis
+                        + loop[:, 1:] * y_axis
+                        + shift * profile.z_axis
+                    )
+                    assert len(got) == len(want) + 1
+                    assert cKDTree(want).query(got)[0].max() < 1e-6
+            continue
+        vertices = np.array([[v.X, v.Y, v.Z] for v in shape.Vertices.ToPoint3dArray()])
+        faces = np.array([list(shape.Faces[i])[:3] for i in range(shape.Faces.Count)])
         a, b, c = (vertices[faces[:, i]] for i in range(3))
         volume = abs(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6.0
-        assert volume == pytest.approx(volumes[obj.Attributes.Name], rel=0.02)
+        assert volume == pytest.approx(part.volume, rel=0.005)
+    assert ("rib", "Extrusion") in kinds and ("stiffener", "Extrusion") in kinds
+    assert {k for k, t in kinds if t == "Mesh"} == {"sheet-top", "sheet-bottom"}
 
 
 def test_stiffeners_too_long_for_the_sides_are_skipped_and_reported(developed, job):

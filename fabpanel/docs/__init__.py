@@ -12,10 +12,9 @@ import csv
 from collections.abc import Mapping
 from pathlib import Path
 
-from ..parallel import map_chunks
 from .bolts import joint_bolts
 from .drawings import write_drawings
-from .ifc import solid_geometry, write_ifc
+from .ifc import solid_geometries, write_ifc
 from .keyplan import write_keyplan
 from .panels import panel_schedule
 from .schedules import Schedule, fastener_schedule, rolling_schedule, weld_schedule
@@ -48,23 +47,23 @@ def write_docs(
     folder: str | Path,
     breps: Mapping[str, bytes] | None,
     workers: int = 1,
+    geometry: Mapping[str, object] | None = None,
 ) -> list[Path]:
     """Write the documents of ``source`` under the output ``folder`` (``docs/`` and, when the
     parts' solids ``breps`` are given, the drawings and ``model/assembly.ifc``); the files
-    written."""
+    written. ``geometry``: the parts' exchange geometry when the model write already made it
+    (:func:`~fabpanel.docs.ifc.solid_geometries`), else it is made here."""
     folder = Path(folder)
     (folder / "docs").mkdir(exist_ok=True)
     written = [write_schedule(s, folder / "docs") for s in schedules(source)]
     written.append(write_keyplan(source, folder / "docs" / "keyplan.pdf"))
     if breps is not None:
         written.append(write_drawings(source, breps, folder / "docs" / "drawings.pdf", workers))
-        items = [
-            (p.id, breps[p.id], p.thickness, not p.kind.startswith("sheet"))
-            for p in source.parts
-            if p.id in breps
-        ]
-        names = [item[0] for item in items]
-        geometry = dict(zip(names, map_chunks(solid_geometry, items, workers)))
+        if geometry is None:
+            geometry = solid_geometries(
+                [(p.id, breps[p.id], p.thickness, p.kind) for p in source.parts if p.id in breps],
+                workers,
+            )
         (folder / "model").mkdir(exist_ok=True)
         written.append(
             write_ifc(source, geometry, joint_bolts(source), folder / "model" / "assembly.ifc")

@@ -24,9 +24,11 @@ from .bolts import Bolts, bolt_set
 from .source import DocSource
 
 #: tessellation of the solids: deflection 0.1 % of a part's bounding-box diagonal, between 0.1
-#: and 2 mm, angular 0.3 rad, and for a sheet at most :data:`SHEET_DEFLECTION` of its
-#: thickness; the holes' circles set much of the vertex count
-IFC_RULE = (0.001, 0.1, 2.0, 0.3)
+#: and 2 mm, angular 0.6 rad, and for a sheet at most :data:`SHEET_DEFLECTION` of its
+#: thickness. The openings' circles set most of a sheet's vertex count: 0.6 rad draws one with
+#: 11 chords (a 40 mm opening within 0.9 mm) and has a third fewer vertices than 0.3 rad on
+#: the demo's sheets, their meshed volumes unchanged to 1e-5
+IFC_RULE = (0.001, 0.1, 2.0, 0.6)
 #: a sheet's largest deflection as a share of its thickness. A sheet's two faces are meshed
 #: apart (a fitted sheet face has few knot spans, so OCCT's mesh follows the deflection alone),
 #: so their chord errors cancel only in part. On the test vault's 3 mm sheets the meshed volume
@@ -169,6 +171,18 @@ def _perpendicular(axis: np.ndarray) -> np.ndarray:
     helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     ref = helper - axis * (helper @ axis)
     return ref / np.linalg.norm(ref)
+
+
+def solid_geometries(
+    parts: list[tuple[str, bytes, float, str]], workers: int = 1
+) -> dict[str, object]:
+    """Every part's exchange geometry (:func:`solid_geometry`) by part id, in ``workers``
+    worker processes; ``parts`` are (id, BREP, thickness mm, kind). The IFC and the 3DM
+    carry the same: a flat plate's profile, a sheet's tessellation."""
+    from ..parallel import map_chunks
+
+    items = [(pid, brep, t, not kind.startswith("sheet")) for pid, brep, t, kind in parts]
+    return dict(zip((item[0] for item in items), map_chunks(solid_geometry, items, workers)))
 
 
 def solid_geometry(items: list[tuple[str, bytes, float, bool]]) -> list:

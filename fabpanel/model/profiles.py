@@ -79,7 +79,7 @@ def prism_profile(brep: bytes, thickness: float) -> PrismProfile | None:
     y_axis = np.cross(z_axis, x_axis)
     loops = [_loop(wire) for wire in _wires(face)]
     flat = [np.column_stack([(p - origin) @ x_axis, (p - origin) @ y_axis]) for p in loops]
-    outer = max(range(len(flat)), key=lambda i: abs(_area(flat[i])))
+    outer = max(range(len(flat)), key=lambda i: abs(signed_area(flat[i])))
     return PrismProfile(
         origin=origin,
         x_axis=x_axis,
@@ -94,7 +94,8 @@ def _vector(value) -> np.ndarray:
     return np.array([value.X(), value.Y(), value.Z()])
 
 
-def _area(loop: np.ndarray) -> float:
+def signed_area(loop: np.ndarray) -> float:
+    """A closed 2D loop's area, positive when it runs counter-clockwise."""
     x, y = loop[:, 0], loop[:, 1]
     return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
 

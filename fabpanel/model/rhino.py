@@ -9,7 +9,9 @@ Layers (millimetres):
 ``stiffeners``    every corner stiffener's outline, in place
 ``labels``        a text dot with the panel id at each panel's centre
 ``solids-sheets``, ``solids-ribs``, ``solids-stiffeners``, ``solids-packing``
-                  every part's solid as a mesh (the preview's tessellation), named by part id
+                  every part's solid, named by part id: a flat plate (rib, stiffener, packing)
+                  exactly, as a capped extrusion of its profile with its holes (a Rhino
+                  extrusion object), a rolled sheet as the closed mesh the IFC carries
 
 Every panel of the layout is drawn, also one the build stage could not build (its outline and
 label; its surface too unless its developed grid admits no B-spline, which is then logged).
@@ -21,13 +23,16 @@ book) use, so ``n + p - 1`` knots are written for ``n`` poles of degree ``p``.
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
 from ..data import Model
 from ..errors import KernelError
 from . import occ
+from .profiles import PrismProfile, signed_area
 
 log = logging.getLogger(__name__)
 
@@ -82,13 +87,10 @@ def nurbs_surface(surface, origin: np.ndarray | None = None):
     return result
 
 
-def write_3dm(
-    model: Model,
-    path: str | Path,
-    meshes: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
-) -> Path:
-    """Write ``design.3dm`` (see the module docstring); ``meshes`` (part id -> vertices mm in
-    the local frame, triangles) adds the solids."""
+def write_3dm(model: Model, path: str | Path, solids: Mapping[str, object] | None = None) -> Path:
+    """Write ``design.3dm`` (see the module docstring); ``solids`` (part id -> a flat plate's
+    :class:`~fabpanel.model.profiles.PrismProfile` or a mesh (vertices mm, triangles), local
+    frame; :func:`fabpanel.docs.ifc.solid_geometries`) adds the solids."""
     import rhino3dm
 
     path = Path(path)
@@ -146,16 +148,54 @@ def write_3dm(
         layer_name = {"rib": "ribs", "packing": "packing"}.get(part.kind, "stiffeners")
         doc.Objects.AddPolyline(points(np.r_[world, world[:1]]), attributes(layer_name, part.id))
     for part in model.parts:
-        if meshes is None or part.id not in meshes:
+        if solids is None or part.id not in solids:
             continue
-        vertices, triangles = meshes[part.id]
-        doc.Objects.AddMesh(
-            _mesh(np.asarray(vertices) + origin, triangles),  # type: ignore[call-arg]
-            attributes(SOLID_LAYER.get(part.kind, "solids-stiffeners"), part.id),
-        )
+        solid = solids[part.id]
+        where = attributes(SOLID_LAYER.get(part.kind, "solids-stiffeners"), part.id)
+        if isinstance(solid, PrismProfile):
+            # rhino3dm stubs omit the optional attributes argument
+            doc.Objects.AddExtrusion(extrusion(solid, origin), where)  # type: ignore[call-arg]
+        else:
+            vertices, triangles = cast(tuple[np.ndarray, np.ndarray], solid)
+            doc.Objects.AddMesh(
+                _mesh(np.asarray(vertices) + origin, triangles),  # type: ignore[call-arg]
+                where,
+            )
     if not doc.Write(str(path), 8):
         raise KernelError(f"writing {path} failed")
     return path
+
+
+def extrusion(profile: PrismProfile, origin: np.ndarray):
+    """A capped ``rhino3dm.Extrusion`` of a flat plate's profile and holes, moved by
+    ``origin`` (mm). Rhino lays a profile's x along ``up x path`` and its y along ``up``: the
+    path runs from the profile's origin along its z axis by the depth, ``up`` is z x x."""
+    import rhino3dm
+
+    def curve(loop: np.ndarray, counter_clockwise: bool):
+        if (signed_area(loop) > 0) != counter_clockwise:
+            loop = loop[::-1]
+        closed = np.vstack([loop, loop[:1]]).tolist()
+        # rhino3dm stubs lack the constructor from points (it exists at runtime)
+        return rhino3dm.PolylineCurve(  # type: ignore[call-arg]
+            [rhino3dm.Point3d(x, y, 0.0) for x, y in closed]
+        )
+
+    shape = rhino3dm.Extrusion()
+    start = np.asarray(profile.origin, dtype=float) + origin
+    end = start + profile.depth * profile.z_axis
+    up = np.cross(profile.z_axis, profile.x_axis)
+    placed = shape.SetOuterProfile(curve(profile.outer, True), True) and all(
+        shape.AddInnerProfile(curve(loop, False)) for loop in profile.inner
+    )
+    placed = placed and shape.SetPathAndUp(
+        rhino3dm.Point3d(*map(float, start)),
+        rhino3dm.Point3d(*map(float, end)),
+        rhino3dm.Vector3d(*map(float, up)),
+    )
+    if not placed or not shape.IsValid:
+        raise KernelError("extrusion of a plate's profile for Rhino is not valid")
+    return shape
 
 
 def _mesh(vertices: np.ndarray, triangles: np.ndarray):
