@@ -680,6 +680,33 @@ def test_decks_share_their_model_data_unless_it_is_another_models(tmp_path):
     assert (tmp_path / "model.inp").read_text() != shared
 
 
+def test_nodal_loads_leave_out_the_roundings_of_zeros_only(tmp_path):
+    """A load component below LOAD_FLOOR of the case's largest is not written; the rest are,
+    to nine digits, and sum to the case's resultant."""
+    from fabpanel.structure.ccx import LOAD_FLOOR
+
+    points = np.stack(
+        np.meshgrid(np.linspace(0, 800, 5), np.linspace(0, 600, 5), indexing="ij"), -1
+    )
+    model, _ = patch_model(np.concatenate([points, np.zeros((5, 5, 1))], axis=-1), 3.0, Material())
+    rng = np.random.default_rng(7)
+    forces = np.zeros((len(model.nodes), 3))
+    forces[:, 2] = -rng.uniform(1.0, 40.0, len(model.nodes))
+    forces[:, 0] = rng.uniform(-1.0, 1.0, len(model.nodes)) * 1e-12  # a zero's rounding
+    forces[3, 1] = 1e-3  # small, but a load
+    text = write_deck(model, tmp_path / "w.inp", [LoadCase("W", forces=forces)]).read_text()
+    block = text.split("*CLOAD, OP=NEW\n")[1].split("*")[0].strip().splitlines()
+    written = np.zeros_like(forces)
+    for line in block:
+        node, dof, value = line.split(", ")
+        written[int(node) - 1, int(dof) - 1] = float(value)
+    assert not written[:, 0].any() and written[3, 1] == 1e-3
+    assert len(block) == len(model.nodes) + 1
+    np.testing.assert_allclose(written[:, 2], forces[:, 2], rtol=5e-9)
+    assert np.abs(forces[:, 0]).max() <= LOAD_FLOOR * np.abs(forces).max()  # what went
+    np.testing.assert_allclose(written.sum(0), forces.sum(0), rtol=1e-8, atol=1e-6)
+
+
 # --------------------------------------------------------------------------------------------
 def test_missing_ccx_is_reported_or_raised(cylinder_model, monkeypatch, tmp_path):
     job, model = cylinder_model
