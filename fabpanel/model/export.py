@@ -209,18 +209,7 @@ GLB_DEFLECTION = (0.2, 5.0)
 GLB_ANGLE = 0.6
 
 
-def preview_meshes(model: Model, workers: int = 1) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Every part's preview tessellation (part id -> vertices mm, local frame, triangles), as
-    the GLB and the 3DM draw them."""
-    return dict(zip((p.id for p in model.parts), _part_meshes(list(model.parts), workers)))
-
-
-def write_glb(
-    model: Model,
-    path: str | Path,
-    workers: int = 1,
-    meshes: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
-) -> Path:
+def write_glb(model: Model, path: str | Path, workers: int = 1) -> Path:
     """A binary glTF preview: one named mesh per part (its part id), a node per panel holding
     its parts, coloured by kind; in metres with Y up, as glTF defines (the parts are mm, Z up).
     Each part is tessellated with a deflection tied to its size (``GLB_RELATIVE``), in
@@ -233,8 +222,7 @@ def write_glb(
     origin = np.asarray(model.developed.layout.origin, dtype=float)
     # mm, Z up -> m, Y up: (x, y, z) -> (x, z, -y)
     to_gltf = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]) / 1000.0
-    if meshes is None:
-        meshes = preview_meshes(model, workers)
+    meshes = dict(zip((p.id for p in model.parts), _part_meshes(list(model.parts), workers)))
     scene = trimesh.Scene()
     by_panel: dict[str, list[Part]] = {}
     for part in model.parts:
