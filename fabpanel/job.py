@@ -311,8 +311,10 @@ class DevelopSection(_Section):
     #: global: weight of fairness (second differences along the sample grid lines, against the
     #: design's). The sheets are bicubics through the samples: below about 1 the grid lines bend
     #: unevenly from sample to sample on doubly curved shapes, and the bicubic between them is
-    #: far less developable than the samples (a 12 m dome at 1.2 m: 164 of 166 panels over the
-    #: strain tolerance at 0.1, 46 at 1); well above 1 the design's double curvature wins back
+    #: far less developable than the samples (a 12 m dome meshed at 0.2 m, 1.2 m panels: 164 of
+    #: 166 panels over the strain tolerance at 0.1, none at 1 with a mesh's reference smoothed,
+    #: see :func:`fabpanel.develop.optimise.design_second_differences`); well above 1 the
+    #: design's double curvature wins back
     fairness: float = Field(default=1.0, ge=0, le=100)
     #: global: weight of rib planarity (side samples in one plane per side, the normals along it
     #: at one angle to that plane)

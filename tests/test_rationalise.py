@@ -215,7 +215,7 @@ def test_the_solver_stops_in_the_tail_once_two_steps_move_no_sample_further_than
 def test_the_sheets_bicubic_between_the_samples_stays_developable(tmp_path):
     # the build makes each sheet a bicubic through the samples and the cut stage unrolls
     # that: with fairness 0.1 the samples of 2 m panels on a 5 m sphere unrolled within
-    # 3.6e-4 but the bicubic through them at 7.7e-3; with the default fairness within 3e-4
+    # 3.6e-4 but the bicubic through them at 7.3e-3; with the defaults within 3e-4
     from fabpanel.data import Part
     from fabpanel.flat.unroll import unroll_sheet
     from fabpanel.model import occ
