@@ -78,7 +78,9 @@ def test_panels_meeting_only_at_a_vertex_do_not_overlap_where_the_rib_planes_twi
     job = Job.from_dict(
         {
             "input": {"path": "plate.obj", "units": "mm"},
-            "develop": {"method": "global"},
+            # fairness 0.1: this plate's rib planes lean over 5 degrees only with the grid lines
+            # left that free (4.1 at the default 1), and the lean is what is tested
+            "develop": {"method": "global", "fairness": 0.1},
             # no access slots: the tool's reach is not what is tested, and it triples the time
             "sandwich": {"bolts": {"access_sheet": "none"}},
         }
