@@ -178,7 +178,7 @@ def _glyph_boxes(labels):
 def test_no_label_is_crossed_by_a_hole_an_opening_or_the_outline(cone_run):
     from shapely.geometry import Polygon
 
-    from fabpanel.flat.unroll import hole_areas
+    from fabpanel.flat.labels import hole_areas
 
     _, flat = cone_run
     for part in flat.parts:

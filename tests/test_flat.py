@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import shapely
 from shapely.geometry import Point, Polygon
 
 from fabpanel.data import Hole, Model, Part
@@ -177,7 +178,7 @@ def test_cut_sheets_and_ribs(tmp_path):
     # bend lines stop short of the etched labels (the middle ones run through them)
     from shapely.geometry import LineString
 
-    from fabpanel.flat.unroll import label_boxes
+    from fabpanel.flat.labels import label_boxes
 
     text = label_boxes(top.labels).buffer(-0.5)
     assert len(top.bend_lines) > 5
@@ -393,3 +394,28 @@ def test_a_sheet_whose_flat_outline_crosses_itself_is_an_error_issue_not_a_crash
     assert [(i.code, i.severity, i.item) for i in flat.issues if i.code == "invalid-outline"] == [
         ("invalid-outline", "error", "P001-TOP")
     ]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_label_stack_keeps_clear_of_holes_near_the_roomiest_point(seed):
+    """A rib-like strip with bolt holes along its middle (and one hole beside the middle, where
+    the pole of inaccessibility's stack would reach): every line of the stack lies inside the
+    outline and clear of every grown hole, and stays legible."""
+    from fabpanel.flat.labels import LABEL_CLEARANCE, LABEL_HEIGHT, _line_boxes, place_labels
+
+    rng = np.random.default_rng(seed)
+    length, depth = rng.uniform(600.0, 1400.0), rng.uniform(90.0, 160.0)
+    outline = np.array([[0.0, 0.0], [length, 0.0], [length, depth], [0.0, depth]])
+    pitch = rng.uniform(150.0, 260.0)
+    centres = [(x, depth * rng.uniform(0.35, 0.65)) for x in np.arange(20.0, length, pitch)]
+    obstacles = shapely.union_all([Point(c).buffer(6.5 + LABEL_CLEARANCE) for c in centres])
+    lines = ["R012", f"P{seed:03d}-RIB-1", "IN"]
+    labels = place_labels(outline, lines, obstacles=obstacles)
+    free = Polygon(outline).difference(obstacles)
+    assert [line[0] for line in labels] == lines
+    for box in _line_boxes(labels):
+        assert free.buffer(1e-6).contains(box)
+    assert labels[0][3] >= LABEL_HEIGHT[0]
+    # legible on the shop floor: a 90-160 mm strip with holes down its middle has room for
+    # a three-line stack of 10 mm capitals between or beside them
+    assert labels[0][3] >= 10.0

@@ -19,8 +19,7 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 from scipy.spatial import QhullError
-from shapely.geometry import LineString, Point, Polygon
-from shapely.ops import polylabel
+from shapely.geometry import Polygon
 
 from ..data import FlatPart, FlatParts, Hole, MarkGroup, Model, Part
 from ..errors import GeometryError, Issue
@@ -32,19 +31,15 @@ from ..parallel import worker_pool
 from .bending import Bending, bending_of
 from .flatbar import bar_size
 from .holing import is_drilled
-from .strokefont import text_width
+from .labels import LABEL_CLEARANCE, hole_areas, lines_around_labels, place_labels
 
 log = logging.getLogger(__name__)
 
-#: label cap height limits, mm (15-30 mm reads well on a shop floor)
-LABEL_HEIGHT = (4.0, 30.0)
 #: what a sheet's label says of the face up on the table: the one the drawing shows, towards the
 #: ribs, hidden in the finished shell (the only face etched)
 HIDDEN_FACE_UP = "RIB FACE UP"
 #: length of a bend tick at a sheet's edge, mm (``[cutting] bend_marks = "ticks"``)
 BEND_TICK = 50.0
-#: etched text keeps this clear of every hole and opening, mm (a cut edge would cross it)
-LABEL_CLEARANCE = 3.0
 
 
 def grid_sides(grid: np.ndarray) -> list[np.ndarray]:
@@ -60,94 +55,6 @@ def polyline_lengths(polylines: list[np.ndarray]) -> np.ndarray:
 def grid_outline(uv: np.ndarray) -> np.ndarray:
     """(2 (a + b) - 4, 2) float: the flat grid's boundary, sides 0..3, corners not repeated."""
     return np.concatenate([side[:-1] for side in grid_sides(uv)])
-
-
-def place_labels(
-    outline: np.ndarray,
-    lines: list[str],
-    angle: float | None = None,
-    obstacles: shapely.Geometry | None = None,
-) -> tuple[tuple[str, float, float, float, float], ...]:
-    """Stack text lines inside a polygon at the pole of inaccessibility of its free area.
-
-    outline : (n, 2) float, mm. ``angle`` (degrees) defaults to the outline's principal axis.
-    obstacles : what the text must keep clear of (holes, openings), already grown by the
-        clearance wanted; the free area is the outline less these.
-    Returns ``(text, x, y, height, angle_deg)`` per line, centred, cap height in ``LABEL_HEIGHT``.
-    """
-    polygon = Polygon(outline).buffer(0)
-    if obstacles is not None and not polygon.is_empty:
-        free = polygon.difference(obstacles)
-        polygon = free if not free.is_empty else polygon
-    if polygon.is_empty:
-        return ()
-    if polygon.geom_type == "MultiPolygon":
-        polygon = max(polygon.geoms, key=lambda g: g.area)
-    pole = polylabel(polygon, tolerance=1.0)
-    depth = max(polygon.exterior.distance(pole), 1e-6)
-    if angle is None:
-        centred = outline - outline.mean(axis=0)
-        _, _, vt = np.linalg.svd(centred, full_matrices=False)
-        angle = float(np.degrees(np.arctan2(vt[0, 1], vt[0, 0])))
-        angle = (angle + 90.0) % 180.0 - 90.0
-    direction = np.array([np.cos(np.radians(angle)), np.sin(np.radians(angle))])
-    span = 4.0 * np.sqrt(polygon.area) + 4 * depth
-    chord = LineString(
-        [np.array(pole.coords[0]) - span * direction, np.array(pole.coords[0]) + span * direction]
-    ).intersection(polygon)
-    pieces = getattr(chord, "geoms", [chord])
-    available = min((g.length for g in pieces if g.distance(pole) < 1e-6), default=2 * depth)
-    longest = max(len(t) for t in lines)
-    height = min(
-        LABEL_HEIGHT[1],
-        1.4 * depth / (1.6 * len(lines)),
-        0.8 * available / max(text_width("X" * longest, 1.0), 1e-9),
-    )
-    height = max(height, LABEL_HEIGHT[0])
-    normal = np.array([-direction[1], direction[0]])
-    offsets = (np.arange(len(lines))[::-1] - (len(lines) - 1) / 2) * 1.6 * height
-    centre = np.array(pole.coords[0])
-    return tuple(
-        (text, *(centre + off * normal).tolist(), float(height), float(angle))
-        for text, off in zip(lines, offsets)
-    )
-
-
-def hole_areas(part: FlatPart, clearance: float) -> shapely.Geometry:
-    """Every hole, opening and drill hole of a part, grown by ``clearance`` mm."""
-    shapes = [Polygon(h).buffer(clearance) for h in part.holes]
-    shapes += [
-        Point(h.centre).buffer(h.diameter / 2 + clearance, quad_segs=8)
-        for h in (*part.round_holes, *part.drill_holes)
-    ]
-    return shapely.union_all(shapes) if shapes else Polygon()
-
-
-def label_boxes(labels) -> shapely.Geometry:
-    """The area the etched labels cover, with a clear border of half a cap height."""
-    boxes = []
-    for text, x, y, height, angle in labels:
-        half = np.array([text_width(text, height) / 2 + height / 2, 1.3 * height])
-        corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * half
-        turn = np.radians(angle)
-        rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
-        boxes.append(Polygon(corners @ rotation.T + [x, y]))
-    return shapely.union_all(boxes)
-
-
-def lines_around_labels(lines: np.ndarray, labels) -> np.ndarray:
-    """(c', 2, 2) float: bend lines with the stretches under a label left out, so the etched
-    text stays legible; pieces shorter than 5 mm are dropped."""
-    if not len(lines) or not labels:
-        return lines
-    covered = label_boxes(labels)
-    pieces = []
-    for line in lines:
-        rest = LineString(line).difference(covered)
-        for piece in getattr(rest, "geoms", [rest]):
-            if piece.length >= 5.0:
-                pieces.append(np.asarray(piece.coords)[[0, -1]])
-    return np.array(pieces).reshape(-1, 2, 2)
 
 
 def grid_point(grid: np.ndarray, u: float, v: float) -> np.ndarray:
@@ -421,6 +328,5 @@ __all__ = [
     "flat_plate",
     "grid_outline",
     "grid_sides",
-    "place_labels",
     "unroll_sheet",
 ]
