@@ -914,9 +914,10 @@ class StructureSection(_Section):
     #: true (or ``--require-fem``) makes that an error
     required: bool = False
     #: keep CalculiX's result files (.frd for CalculiX GraphiX, .12d, .sta, .cvg) beside the
-    #: decks; by default only the decks (.inp), the printed results (.dat) and the logs stay,
-    #: since the .frd of the demo's four runs alone is 200 MB and every figure and check of the
-    #: report is read from it already (run ``ccx`` on a kept deck to get it again)
+    #: decks, and the printed results (.dat) uncompressed; by default only the decks (.inp),
+    #: the printed results gzipped (.dat.gz) and the logs stay, since the .frd of the demo's
+    #: four runs alone is 200 MB and every figure and check of the report is read from it
+    #: already (run ``ccx`` on a kept deck to get it again)
     keep_results: bool = False
 
     def _check(self, w: _Written) -> None:

@@ -9,6 +9,7 @@ from shapely.geometry import Point, Polygon
 
 from fabpanel.data import Hole, Model, Part
 from fabpanel.flat import audit_dxf, cut, part_area_from_dxf, write_part_dxf, write_parts
+from fabpanel.flat.dxf import DECIMALS
 from fabpanel.flat.strokefont import CHARACTERS, text_strokes
 from fabpanel.flat.unroll import grid_point
 from fabpanel.geom.flatten import flatten_grid
@@ -194,10 +195,23 @@ def test_cut_sheets_and_ribs(tmp_path):
         # the header's extents hold the drawing (a viewer zooms to them)
         import ezdxf
 
-        header = ezdxf.readfile(path).header
+        document = ezdxf.readfile(path)
+        # coordinates to 1 um: what a float's 17 digits would add is noise to a plasma
+        points = [
+            np.asarray(e.get_points("xy"))
+            for e in document.modelspace()
+            if e.dxftype() == "LWPOLYLINE"
+        ]
+        coordinates = np.concatenate(points).ravel()
+        assert len(coordinates) > 100
+        scaled = coordinates * 10.0**DECIMALS
+        assert DECIMALS == 3 and np.abs(scaled - np.round(scaled)).max() < 1e-6
+        header = document.header
         low, high = part.outline.min(axis=0), part.outline.max(axis=0)
-        assert np.all(np.asarray(header["$EXTMIN"])[:2] <= low + 1e-6)
-        assert np.all(np.asarray(header["$EXTMAX"])[:2] >= high - 1e-6)
+        # (the drawing's coordinates are rounded to DECIMALS; its extents hold those)
+        rounding = 0.5 * 10.0**-DECIMALS + 1e-9
+        assert np.all(np.asarray(header["$EXTMIN"])[:2] <= low + rounding)
+        assert np.all(np.asarray(header["$EXTMAX"])[:2] >= high - rounding)
         assert np.all(
             np.asarray(header["$EXTMAX"])[:2] - np.asarray(header["$EXTMIN"])[:2]
             < (high - low) + 50

@@ -638,10 +638,13 @@ def test_barrel_vault_example_reactions_equal_loads_and_mass_equals_parts(vault_
     # the static cases in one deck, or split over decks run side by side (one per thread)
     decks = structure.metrics["static_decks"]
     stems = ["static"] if decks == 1 else [f"static-{k + 1}" for k in range(decks)]
-    # the .frd is dropped once read (keep_results); the decks and .dat stay
-    names = [f"{stem}.{ext}" for stem in stems for ext in ("inp", "dat")]
-    for name in [*names, "buckle.inp", "buckle.dat", "model.inp"]:
+    # the .frd is dropped once read (keep_results); the decks stay, the .dat gzipped; the
+    # summary lists what is there and nothing else
+    names = [f"{stem}.{ext}" for stem in stems for ext in ("inp", "dat.gz")]
+    for name in [*names, "buckle.inp", "buckle.dat.gz", "model.inp"]:
         assert (folder / name).is_file() and f"structure/{name}" in s["files"]
+    on_disk = [f"structure/{p.name}" for p in folder.iterdir() if p.is_file()]
+    assert sorted(s["files"]) == sorted(on_disk)
     # one copy of the mesh: the static decks and the buckling deck read model.inp
     for name in [f"{stem}.inp" for stem in stems] + ["buckle.inp"]:
         text = (folder / name).read_text()
@@ -773,16 +776,30 @@ def test_lowest_supports_are_the_boundary_sides_on_the_lowest_level():
 @needs_ccx
 def test_result_files_are_dropped_after_reading_unless_kept(vault_structure, tmp_path):
     """The .frd, .12d, .sta and .cvg files are read and then removed (the demo's .frd are
-    200 MB); the decks, .dat and logs stay, and a file fabpanel did not write is left alone."""
+    200 MB); the decks and logs stay, the printed results gzipped (the same text, the same
+    bytes), and a file fabpanel did not write is left alone."""
+    import gzip
+
     _, _, folder = vault_structure
-    assert sorted(folder.glob("*.inp")) and sorted(folder.glob("*.dat"))
+    assert sorted(folder.glob("*.inp")) and sorted(folder.glob("*.dat.gz"))
+    assert not sorted(folder.glob("*.dat"))
     assert not [p for p in folder.iterdir() if p.suffix in (".frd", ".12d", ".sta", ".cvg")]
-    from fabpanel.structure.analysis import drop_results
+    assert "total mass" in gzip.decompress((folder / "buckle.dat.gz").read_bytes()).decode()
+    from fabpanel.structure.ccx import tidy_results
 
     mine = tmp_path / "static-1.frd"  # no deck beside it: not CalculiX's from this run
     mine.write_text("the user's own")
+    (tmp_path / "notes.dat").write_text("the user's own")
     (tmp_path / "static-2.inp").write_text("*HEADING")
     (tmp_path / "static-2.frd").write_text("results")
-    drop_results(tmp_path, since=0.0)
+    printed = " total force (fx,fy,fz) for set NSUPP and time  0.1E+01\n" * 1000
+    (tmp_path / "static-2.dat").write_text(printed)
+    tidy_results(tmp_path, since=0.0)
     assert mine.is_file() and not (tmp_path / "static-2.frd").exists()
-    assert (tmp_path / "static-2.inp").is_file()
+    assert (tmp_path / "static-2.inp").is_file() and (tmp_path / "notes.dat").is_file()
+    packed = (tmp_path / "static-2.dat.gz").read_bytes()
+    assert gzip.decompress(packed).decode() == printed and len(packed) < len(printed) / 20
+    assert not (tmp_path / "static-2.dat").exists()
+    (tmp_path / "static-2.dat").write_text(printed)
+    tidy_results(tmp_path, since=0.0)
+    assert (tmp_path / "static-2.dat.gz").read_bytes() == packed

@@ -38,6 +38,9 @@ DXF_VERSION = "R2010"
 LAYERS = {"CUT-OUTER": 7, "CUT-INNER": 1, "ETCH": 3, "DRILL": 5, "PLATE": 8}
 #: entity types a plasma DXF must not contain
 FORBIDDEN = ("SPLINE", "ELLIPSE", "TEXT", "MTEXT")
+#: decimals of a coordinate in the file, mm: 1 um, a hundred times finer than any plasma or
+#: laser holds, where the full 17 digits of a float made half of every nest file
+DECIMALS = 3
 
 
 def new_document() -> ezdxf.document.Drawing:
@@ -57,10 +60,12 @@ def new_document() -> ezdxf.document.Drawing:
 
 
 def _apply(transform: np.ndarray | None, points: np.ndarray) -> np.ndarray:
+    """Points moved into the drawing and rounded to ``DECIMALS`` (what the file stores)."""
     points = np.asarray(points, dtype=float)
-    if transform is None:
-        return points
-    return points @ transform[:2, :2].T + transform[:2, 2]
+    if transform is not None:
+        points = points @ transform[:2, :2].T + transform[:2, 2]
+    # + 0.0 turns -0.0 into 0.0
+    return np.round(points, DECIMALS) + 0.0
 
 
 def etch_polylines(part: FlatPart) -> list[np.ndarray]:

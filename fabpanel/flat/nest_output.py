@@ -22,10 +22,14 @@ from matplotlib.path import Path as MplPath
 from shapely.geometry import Polygon
 
 from ..data import FlatPart, FlatParts, Nests, Plate
+from ..raster import figure_png
 from .dxf import add_part, bend_marks, new_document, save
 from .packing import transform_points
 
 log = logging.getLogger(__name__)
+
+#: a nest preview's palette: a few flat fills, outlines and black text
+NEST_COLOURS = 32
 
 
 def write_plate_dxf(
@@ -119,7 +123,7 @@ def write_plate_png(
     )
     # fixed margins: tight_layout measured every label again, a third of the plate's time
     fig.subplots_adjust(left=0.05, right=0.99, bottom=0.06, top=0.92)
-    fig.savefig(path, dpi=dpi)
+    Path(path).write_bytes(figure_png(fig, dpi=dpi, colours=NEST_COLOURS))
     plt.close(fig)
     return Path(path)
 

@@ -8,6 +8,7 @@ import io
 from collections import Counter
 from pathlib import Path
 
+from ..raster import palette_png
 from ..structure.convergence import buckling_text
 from .blocks import (
     Block,
@@ -392,9 +393,7 @@ def thumbnail(path: Path) -> bytes:
         small = image.convert("RGB").resize(
             (THUMBNAIL_WIDTH, max(1, round(image.height * ratio))), Image.Resampling.LANCZOS
         )
-        out = io.BytesIO()
-        small.save(out, format="PNG", optimize=True)
-    return out.getvalue()
+    return palette_png(small)
 
 
 def issue_blocks(result) -> list[Block]:

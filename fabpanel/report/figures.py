@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import io
-
 import numpy as np
+
+from ..raster import figure_png
 
 CLASS_COLOURS = {
     "planar": "#4c9be8",
@@ -24,10 +24,8 @@ def view_3d(ax, points: np.ndarray) -> None:
 
 
 def png_bytes(fig) -> bytes:
-    """The figure as PNG (110 dpi, trimmed), without a time stamp."""
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=110, bbox_inches="tight", metadata={"Software": None})
-    return buffer.getvalue()
+    """The figure as a palette PNG (110 dpi, trimmed), without a time stamp."""
+    return figure_png(fig, dpi=110, bbox_inches="tight")
 
 
 def panel_figure(developed) -> bytes:

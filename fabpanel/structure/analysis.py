@@ -286,10 +286,10 @@ def analyse(
         folder.mkdir(parents=True, exist_ok=True)
         since = time.time()
         try:
-            return _analyse(model, job, folder, threads, executable, True, flat)
+            return _analyse(model, job, folder, threads, executable, True, flat, since)
         finally:
-            if not st.keep_results:
-                drop_results(folder, since)
+            if not st.keep_results:  # a failed run's files too
+                ccx.tidy_results(folder, since)
     except FabpanelError as err:
         if st.required:
             raise
@@ -302,23 +302,11 @@ def analyse(
         )
 
 
-#: what CalculiX writes beside a deck that the report does not need once it is read
-RESULT_SUFFIXES = (".frd", ".12d", ".sta", ".cvg")
-
-
-def drop_results(folder: Path, since: float) -> None:
-    """Remove the result files CalculiX wrote in ``folder`` beside a deck since ``since``
-    (a ``time.time()``): nothing older, and nothing that is not beside a deck, is touched."""
-    stems = {deck.stem for deck in folder.glob("*.inp")}
-    for path in folder.iterdir():
-        ours = path.suffix in RESULT_SUFFIXES and path.stem in stems
-        if (ours or path.name == "spooles.out") and path.stat().st_mtime >= since - 1.0:
-            path.unlink()
-
-
 def _analyse(
-    model, job, folder: Path, threads: int, executable: str, keep: bool, flat
+    model, job, folder: Path, threads: int, executable: str, keep: bool, flat, since: float = 0.0
 ) -> Structure:
+    """The stage's work in ``folder``; ``keep``: the folder is the output's, tidied (unless
+    ``keep_results``) before its files are listed, ``since`` the time the stage began."""
     started = time.perf_counter()
     st, loads = job.structure, job.loads
     developed = model.developed
@@ -473,6 +461,8 @@ def _analyse(
     if imperfect is not None:
         checks["gnia"] = imperfect.ok
     seconds = time.perf_counter() - started
+    if keep and not st.keep_results:
+        ccx.tidy_results(folder, since)
     files = tuple(sorted(p.name for p in folder.iterdir() if p.is_file())) if keep else ()
     summary = {
         "analysed": True,

