@@ -325,10 +325,10 @@ def signal_probe(sig: signal.Signals) -> dict:
             stderr=subprocess.PIPE,
             text=True,
         )
-        while len(children(proc.pid)) < 2:
+        while not workers_up(proc.pid):
             time.sleep(0.1)
         time.sleep(2.0)
-        workers = children(proc.pid)
+        workers = descendants(proc.pid)
         sent = time.perf_counter()
         proc.send_signal(sig)
         _, stderr = proc.communicate()
@@ -396,6 +396,21 @@ def children(pid: int) -> list[int]:
         children = task / "children"
         found += [int(c) for c in children.read_text().split()] if children.exists() else []
     return found
+
+
+def descendants(pid: int) -> list[int]:
+    """Every process below ``pid``: fresh workers are children of a fork server, itself a
+    child of the run."""
+    found, queue = [], children(pid)
+    while queue:
+        found.append(queue.pop())
+        queue += children(found[-1])
+    return found
+
+
+def workers_up(pid: int) -> bool:
+    """Whether the run's worker processes (grandchildren, under the fork server) are up."""
+    return sum(len(children(c)) for c in children(pid)) >= 2
 
 
 def alive(pid: int) -> bool:

@@ -85,7 +85,10 @@ def _fail(err: BaseException, debug: bool) -> None:
             err=True,
         )
         # the run has cleaned up (workers, staging folder); skip the interpreter's teardown,
-        # which spends seconds collecting the run's geometry
+        # which spends seconds collecting the run's geometry, but not its temporary folder
+        from .parallel import remove_temp_dir
+
+        remove_temp_dir()
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(128 + signum)

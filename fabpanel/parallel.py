@@ -6,8 +6,10 @@ BLAS threads for every small sparse solve and they spend their time waiting for 
 (measured: unrolling 100 sheets took 6.0 s on 2 workers against 1.3 s with one BLAS thread each).
 
 Stopping: the parent owns the workers. They ignore SIGINT (Ctrl-C reaches the whole process
-group; the parent decides), die with SIGTERM, and the kernel kills them when the parent dies,
-even by SIGKILL (Linux ``PR_SET_PDEATHSIG``), so no worker outlives a run. When the code inside
+group; the parent decides), die with SIGTERM, and exit when the run dies, even by SIGKILL: the
+kernel kills a forked worker with its parent (Linux ``PR_SET_PDEATHSIG``), and a fresh worker
+(started by a fork server, which outlives the run) watches the run's pidfd. No worker outlives
+a run. When the code inside
 ``with worker_pool(...)`` raises (an error, Ctrl-C, SIGTERM), queued tasks are cancelled and the
 running ones terminated at once instead of being waited for.
 
@@ -26,8 +28,11 @@ import ctypes
 import logging
 import multiprocessing
 import os
+import select
+import shutil
 import signal
 import sys
+import threading
 import warnings
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
@@ -48,20 +53,43 @@ _PR_SET_PDEATHSIG = 1
 _TERMINATE_WAIT = 2.0
 
 
-def _die_with_parent(parent: int | None) -> None:
-    """Killed when the parent dies. ``parent``: its pid, or None for a worker started by a
-    fork server (which dies with the run: it exits when the run's end of its pipe closes)."""
+def _die_with_parent(parent: int) -> None:
+    """Killed when the parent dies (a forked worker's parent is the run)."""
     if not sys.platform.startswith("linux"):
         return
     libc = ctypes.CDLL(None, use_errno=True)
     libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    if parent is not None and os.getppid() != parent:  # died before prctl took effect
+    if os.getppid() != parent:  # died before prctl took effect
         os._exit(1)
 
 
-def _init_worker(parent: int | None) -> None:
+def _die_with_run(run: int) -> None:
+    """A fresh worker exits when the run dies, even by SIGKILL. Its parent is the fork server,
+    and that outlives the run: the server stays while any worker holds its pipe, and each
+    worker holds one. So the worker watches the run itself (a pidfd, readable once the run has
+    gone; Linux 5.3 or later) from a thread that does nothing else."""
+    if not hasattr(os, "pidfd_open"):
+        return
+    try:
+        watched = os.pidfd_open(run)
+    except ProcessLookupError:  # the run is gone already
+        os._exit(1)
+    except OSError:  # a kernel without pidfds
+        return
+
+    def watch() -> None:
+        select.select([watched], [], [])
+        os._exit(1)
+
+    threading.Thread(target=watch, name="fabpanel-run-watch", daemon=True).start()
+
+
+def _init_worker(parent: int, fresh: bool) -> None:
     global _limits
-    _die_with_parent(parent)
+    if fresh:
+        _die_with_run(parent)
+    else:
+        _die_with_parent(parent)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     # library warnings in workers would reach the user's terminal unasked; the stage checks
@@ -173,8 +201,9 @@ def worker_pool(workers: int, fresh: bool = False) -> Iterator[Executor]:
     """A process pool whose workers use one BLAS thread each and never outlive the run.
 
     fresh : start the workers from a fresh server process ("forkserver") instead of forking
-        this one. Needed once this process has run spyrrow: its Rust thread pool does not
-        survive a fork, and a forked worker packing with it waits forever. Inside
+        this one. Needed once this process has run spyrrow or manifold3d: their thread pools
+        (Rust's, TBB's) do not survive a fork, and a forked worker that packs or builds a
+        manifold with them waits forever (seen: a build worker in ``clash.to_manifold``). Inside
         :func:`shared_pool`, the shared pool's workers.
     """
     ray_settings = _RAY.get()
@@ -192,12 +221,15 @@ def worker_pool(workers: int, fresh: bool = False) -> Iterator[Executor]:
         # an error goes on up to the shared pool's owner, which stops the workers
         yield shared
         return
-    context = multiprocessing.get_context("forkserver") if fresh else None
+    context = None
+    if fresh:
+        _start_resource_tracker_quietly()
+        context = multiprocessing.get_context("forkserver")
     pool = ProcessPoolExecutor(
         max_workers=workers,
         mp_context=context,
         initializer=_init_worker,
-        initargs=(None if fresh else os.getpid(),),
+        initargs=(os.getpid(), fresh),
     )
     try:
         yield pool
@@ -208,6 +240,28 @@ def worker_pool(workers: int, fresh: bool = False) -> Iterator[Executor]:
         terminate_pool(pool)
         raise
     pool.shutdown(wait=True)
+
+
+def _start_resource_tracker_quietly() -> None:
+    """Start multiprocessing's resource tracker (if not running) with its stderr on /dev/null.
+
+    Fresh workers' queues use named semaphores, which the tracker removes when a run stops
+    before its pools are closed (Ctrl-C, SIGTERM, a crash); it then also prints a warning about
+    each "leaked" one, after fabpanel's last line, to the user's terminal. The removal is the
+    point, the warnings are noise: the tracker inherits stderr when it starts, so it starts
+    with /dev/null there."""
+    from multiprocessing import resource_tracker
+
+    sys.stderr.flush()
+    saved = os.dup(2)
+    quiet = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(quiet, 2)
+        resource_tracker.ensure_running()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(quiet)
 
 
 def _broken_pool_message(fresh: bool) -> str:
@@ -242,8 +296,8 @@ def shared_pool(workers: int) -> Iterator[None]:
     """One pool of fresh workers for every ``worker_pool(..., fresh=True)`` opened inside
     (the write stage's files): starting fresh workers costs about 3 s on 2 cores (a server
     process, then each worker importing OCCT and build123d), and the stage opened five pools.
-    Nothing changes on Ray or with one worker."""
-    if workers <= 1 or _RAY.get() is not None:
+    Nothing changes on Ray, with one worker, or inside another shared pool."""
+    if workers <= 1 or _RAY.get() is not None or _SHARED.get() is not None:
         yield
         return
     with worker_pool(workers, fresh=True) as pool:
@@ -252,6 +306,17 @@ def shared_pool(workers: int) -> Iterator[None]:
             yield
         finally:
             _SHARED.reset(token)
+
+
+def remove_temp_dir() -> None:
+    """Remove multiprocessing's temporary folder of this process (``pymp-*``, the fork
+    server's socket): it goes at the interpreter's exit, which a run stopped by a signal skips
+    (:func:`os._exit`, after the run's own clean-up). The folder's path is kept only in
+    multiprocessing's private process config; nothing happens if it is not there."""
+    config = getattr(multiprocessing.current_process(), "_config", {})
+    folder = config.get("tempdir") if isinstance(config, dict) else None
+    if isinstance(folder, str) and os.path.basename(folder).startswith("pymp-"):
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def child_preexec() -> None:
@@ -271,6 +336,7 @@ __all__ = [
     "child_preexec",
     "executor",
     "ray_active",
+    "remove_temp_dir",
     "shared_pool",
     "terminate_pool",
     "worker_pool",

@@ -31,7 +31,8 @@ _spec = importlib.util.spec_from_file_location(
 probes = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(probes)
 _vault_obj = probes.vault
-_children = probes.children
+_descendants = probes.descendants
+_workers_up = probes.workers_up
 _alive = probes.alive
 
 
@@ -251,7 +252,11 @@ def test_error_level_issues_exit_3_unless_allowed(tmp_path):
 # signals
 # ---------------------------------------------------------------------------------------------
 def _start_build(tmp_path: Path) -> tuple[subprocess.Popen, Path]:
-    """An export that spends its time in the build's worker processes (~100 panels)."""
+    """An export that spends its time in the build's worker processes (~100 panels), in
+    ``tmp_path/run`` with its temporary files in ``tmp_path/tmp``."""
+    (tmp_path / "tmp").mkdir()
+    tmp_path = tmp_path / "run"
+    tmp_path.mkdir()
     _vault_obj(tmp_path / "vault.obj")
     (tmp_path / "job.toml").write_text(
         '[input]\npath = "vault.obj"\nunits = "m"\n[panelize]\npanel_size = "0.5 m"\n'
@@ -272,12 +277,13 @@ def _start_build(tmp_path: Path) -> tuple[subprocess.Popen, Path]:
             "2",
         ],
         cwd=tmp_path,
+        env={**os.environ, "TMPDIR": str(tmp_path.parent / "tmp")},
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
     deadline = time.monotonic() + 120
-    while len(_children(proc.pid)) < 2:  # the build's workers are up
+    while not _workers_up(proc.pid):  # the build's workers are up
         assert proc.poll() is None, proc.communicate()
         assert time.monotonic() < deadline, "the build never started"
         time.sleep(0.1)
@@ -288,7 +294,7 @@ def _start_build(tmp_path: Path) -> tuple[subprocess.Popen, Path]:
 @pytest.mark.parametrize(("sig", "code"), [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
 def test_a_signal_stops_the_run_cleanly_within_5_s(tmp_path, sig, code):
     proc, folder = _start_build(tmp_path)
-    workers = _children(proc.pid)
+    workers = _descendants(proc.pid)
     sent = time.monotonic()
     proc.send_signal(sig)
     _, stderr = proc.communicate(timeout=30)
@@ -299,11 +305,12 @@ def test_a_signal_stops_the_run_cleanly_within_5_s(tmp_path, sig, code):
     time.sleep(0.5)
     assert not [w for w in workers if _alive(w)]
     assert sorted(p.name for p in folder.iterdir()) == ["job.toml", "vault.obj"]
+    assert not list((folder.parent / "tmp").iterdir())  # multiprocessing's pymp-* folder too
 
 
 def test_workers_die_with_a_killed_run_and_its_debris_is_swept(tmp_path):
     proc, folder = _start_build(tmp_path)
-    workers = _children(proc.pid)
+    workers = _descendants(proc.pid)
     proc.kill()
     proc.communicate(timeout=30)
     deadline = time.monotonic() + 5

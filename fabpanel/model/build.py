@@ -35,7 +35,7 @@ from ..buildup import Buildup
 from ..data import DevelopedPanels, Model, Part
 from ..errors import Issue, KernelError
 from ..job import Job
-from ..parallel import worker_pool
+from ..parallel import shared_pool, worker_pool
 from ..tolerances import TOLERANCES
 from .bolt_moves import MOVE_ROUNDS, Rooms, move_blocked_end_bolts
 from .clash import Clash, find_clashes, part_solid
@@ -92,15 +92,18 @@ def build(
     ]
     workers = max(1, min(jobs or os.cpu_count() or 1, m))
     results: list[PanelResult | None] = [None] * m
-    _run_payloads(payloads, list(range(m)), results, workers, developed, progress)
-    if buildup.access is not None:
-        # end bolts the tool cannot reach are moved along their joint, both panels rebuilt
-        rooms: Rooms = {}
-        for _ in range(MOVE_ROUNDS):
-            moved = move_blocked_end_bolts(developed, payloads, results, buildup, rooms)
-            if not moved:
-                break
-            _run_payloads(payloads, sorted(moved), results, workers, developed, None)
+    # one pool of fresh workers for the first pass and every round of moves: the moves run
+    # manifold3d here, and its thread pool (TBB's) does not survive a fork
+    with shared_pool(workers):
+        _run_payloads(payloads, list(range(m)), results, workers, developed, progress)
+        if buildup.access is not None:
+            # end bolts the tool cannot reach are moved along their joint, both panels rebuilt
+            rooms: Rooms = {}
+            for _ in range(MOVE_ROUNDS):
+                moved = move_blocked_end_bolts(developed, payloads, results, buildup, rooms)
+                if not moved:
+                    break
+                _run_payloads(payloads, sorted(moved), results, workers, developed, None)
 
     # every panel was waited for: each result is a panel's parts or its failure
     done = [r for r in results if r is not None and r.failure is None]
@@ -178,7 +181,8 @@ def _run_payloads(
             if progress:
                 progress(1)
         return
-    with worker_pool(min(workers, len(indices))) as pool:
+    # fresh workers (the shared pool's): this process may have run manifold3d or spyrrow
+    with worker_pool(min(workers, len(indices)), fresh=True) as pool:
         futures = {pool.submit(_build_or_failure, payloads[p]): p for p in indices}
         for future in as_completed(futures):
             p = futures[future]
