@@ -160,3 +160,53 @@ def test_every_sheet_edge_weld_is_checked_in_both_joint_models(joints_compared):
         assert welds["resistance_N_per_mm"] == pytest.approx(207.85 * welds["throat_mm"], abs=0.1)
         assert 0 < welds["utilisation"] < 1 and s["checks"]["welds"]
         assert welds["governing"]["panel"] in result.panel_ids
+
+
+@needs_ccx
+def test_superposed_half_span_snow_equals_the_case_solved_on_its_own(joints_compared, tmp_path):
+    """S2 and S4 are (1 + share) S less S1 and S3, not solved: every result (displacements,
+    stresses, reactions, spring forces) matches CalculiX solving them on their own."""
+    import dataclasses
+
+    from fabpanel.structure.bolt_checks import case_spring_forces
+    from fabpanel.structure.cases import load_cases
+    from fabpanel.structure.static import run_static
+
+    _, bolted, _ = joints_compared["bolted"]
+    shell = bolted.shell
+    cases, _, _ = load_cases(shell, fp.Job.from_dict({}))
+    superposed = [c.name for c in cases if c.superposed]
+    assert superposed == ["S2", "S4"]
+    snow = [c for c in cases if c.name.startswith("S")]
+    # the loads themselves add up: the superposed case is what its terms say
+    by_name = {c.name: c for c in snow}
+    for name in superposed:
+        terms = by_name[name].superposed
+        loads = sum(f * by_name[n].forces for n, f in terms)
+        np.testing.assert_allclose(loads, by_name[name].forces, atol=1e-9)
+    plain = [dataclasses.replace(c, superposed=()) for c in snow]
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    solved = run_static(shell, plain, tmp_path / "a", 2, 600.0, "ccx")
+    summed = run_static(shell, snow, tmp_path / "b", 2, 600.0, "ccx")
+    forces_solved = case_spring_forces(shell, solved.dat)
+    forces_summed = case_spring_forces(shell, summed.dat)
+    for k, name in enumerate(c.name for c in snow):
+        scale = np.abs(solved.displacement[k]).max()
+        np.testing.assert_allclose(
+            summed.displacement[k], solved.displacement[k], atol=1e-4 * scale
+        )
+        s_scale = np.abs(solved.stress[k]).max()
+        np.testing.assert_allclose(
+            summed.stress[k], solved.stress[k], atol=1e-4 * s_scale, err_msg=name
+        )
+        np.testing.assert_allclose(
+            summed.dat.forces[k],
+            solved.dat.forces[k],
+            atol=1e-3 * np.abs(solved.dat.forces[k]).max(),
+        )
+        f_scale = np.abs(forces_solved[k]).max()
+        np.testing.assert_allclose(
+            forces_summed[k], forces_solved[k], atol=1e-3 * f_scale, err_msg=name
+        )
+        assert np.array_equal(summed.dat.node_forces[k][0], solved.dat.node_forces[k][0])

@@ -39,6 +39,17 @@ def case_spring_forces(shell: ShellModel, dat: ccx.DatResults) -> list[np.ndarra
     return per_case
 
 
+def spring_energies(shell: ShellModel, forces: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """The internal energies (N mm) of the spring elements ``ids`` under the station forces
+    ``forces (c, 3)`` (N): ``f^2 / (2 k)``, the inverse of :func:`case_spring_forces`."""
+    springs = shell.springs
+    assert springs is not None
+    first = len(shell.quads) + len(shell.triangles) + 1
+    k = springs.stiffness.ravel()[ids - first]
+    f = forces.ravel()[ids - first]
+    return np.divide(f * f, 2.0 * k, out=np.zeros_like(f), where=k > 0)
+
+
 def spring_pull(shell: ShellModel, local: np.ndarray) -> np.ndarray:
     """(n, 3) float, N: the force the springs exert on each node, world, from their local
     forces ``local (c, 3)`` (tension pulls the first node towards the second)."""

@@ -126,11 +126,15 @@ class LoadCase:
     gravity : (3,) acceleration, mm/s2, applied to every element's mass (``*DLOAD GRAV``), or
         ``None``. Lumped masses of the model are loaded as nodal forces with it.
     forces : (n, 3) nodal forces, N, or ``None`` (``*CLOAD``).
+    superposed : ``((name, factor), ...)`` when this case's loads are exactly that sum of other
+        cases' (each solved, none superposed itself): its results are the same sum of theirs
+        (the model is linear) and CalculiX does not solve it; empty for a case of its own.
     """
 
     name: str
     gravity: np.ndarray | None = None
     forces: np.ndarray | None = None
+    superposed: tuple[tuple[str, float], ...] = ()
 
     def scaled(self, factor: float) -> LoadCase:
         return LoadCase(

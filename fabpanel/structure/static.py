@@ -13,7 +13,7 @@ the last digits between one and several threads, never between runs of one job o
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -77,7 +77,70 @@ def run_static(
     executable: str,
 ) -> StaticResults:
     """Run the static ``cases`` (``static.inp``, or ``static-1.inp``... side by side) and
-    gather their results in case order."""
+    gather their results in case order; a case ``superposed`` of others is their sum."""
+    solved = [case for case in cases if not case.superposed]
+    run = _run_solved(shell, solved, folder, threads, timeout, executable)
+    if len(solved) == len(cases):
+        return run
+    return superpose(shell, run, solved, cases)
+
+
+def superpose(
+    shell: ShellModel,
+    run: StaticResults,
+    solved: list[ccx.LoadCase],
+    cases: list[ccx.LoadCase],
+) -> StaticResults:
+    """``run``'s results of the ``solved`` cases, for every one of ``cases``: a superposed
+    case's displacements, stresses, reactions and spring forces are the sum of its terms'
+    (a linear model: stresses are components, not yet von Mises; the springs' energies are
+    quadratic, so their signed forces are summed and the energies made again from them)."""
+    from .bolt_checks import case_spring_forces, spring_energies
+
+    index = {case.name: k for k, case in enumerate(solved)}
+    springs = case_spring_forces(shell, run.dat) if run.dat.spring_energy else []
+    dat = ccx.DatResults(mass=run.dat.mass, buckling=run.dat.buckling)
+    displacement, stress = [], []
+
+    def total(values: list[np.ndarray], terms: list[tuple[int, float]]) -> np.ndarray:
+        return sum((factor * values[k] for k, factor in terms), np.zeros_like(values[0]))
+
+    def same_ids(pairs: list[tuple[np.ndarray, np.ndarray]], terms) -> tuple:
+        ids = pairs[terms[0][0]][0]
+        if any(not np.array_equal(pairs[k][0], ids) for k, _ in terms):
+            raise ccx.SolverError("superposed cases whose printed node sets differ")
+        return ids, total([values for _, values in pairs], terms)
+
+    for case in cases:
+        if case.superposed:
+            missing = [name for name, _ in case.superposed if name not in index]
+            if missing:
+                raise ValueError(f"case {case.name} superposes unsolved cases {missing}")
+            terms = [(index[name], factor) for name, factor in case.superposed]
+        else:
+            terms = [(index[case.name], 1.0)]
+        displacement.append(total(run.displacement, terms))
+        stress.append(total(run.stress, terms))
+        dat.forces.append(total(run.dat.forces, terms))
+        dat.node_forces.append(same_ids(run.dat.node_forces, terms))
+        if run.dat.tie_forces:
+            dat.tie_forces.append(same_ids(run.dat.tie_forces, terms))
+        if springs:
+            dat.spring_nodes.append(same_ids(run.dat.spring_nodes, terms))
+            ids = run.dat.spring_energy[terms[0][0]][0]
+            dat.spring_energy.append((ids, spring_energies(shell, total(springs, terms), ids)))
+    return replace(run, dat=dat, displacement=displacement, stress=stress)
+
+
+def _run_solved(
+    shell: ShellModel,
+    cases: list[ccx.LoadCase],
+    folder: Path,
+    threads: int,
+    timeout: float,
+    executable: str,
+) -> StaticResults:
+    """Run the ``cases`` in CalculiX (see :func:`run_static`)."""
     import psutil
 
     decks = deck_count(shell, len(cases), threads, psutil.virtual_memory().total / 2**20)
