@@ -433,3 +433,33 @@ def test_a_label_stack_keeps_clear_of_holes_near_the_roomiest_point(seed):
     # legible on the shop floor: a 90-160 mm strip with holes down its middle has room for
     # a three-line stack of 10 mm capitals between or beside them
     assert labels[0][3] >= 10.0
+
+
+def test_a_gently_curved_sheet_within_the_strain_tolerance_is_rolled_not_pressed():
+    """A 1.5 m sheet on z = x^2 / 2R1 + y^2 / 2R2, R1 15 m, R2 75 m: the curvature ratio (0.2)
+    alone called it double-curved (press or wheel), yet it unrolls far within the job's strain
+    tolerance; it is rolled at about R1, and only a tolerance it exceeds makes it pressed."""
+    from fabpanel.flat.unroll import unroll_sheet
+
+    s = np.linspace(-750.0, 750.0, 25)
+    x, y = np.meshgrid(s, s, indexing="ij")
+    grid = np.stack([x, y, x**2 / 30_000.0 + y**2 / 150_000.0], axis=-1)
+    part = sheet(grid, kind="sheet-bottom")
+    tolerance = Job.from_dict({}).develop.strain_tolerance
+    rolled = unroll_sheet(part, tolerance)
+    assert rolled.max_strain < tolerance
+    assert unroll_sheet(part).forming == "OUT DOUBLE CURVED"  # the ratio alone
+    assert rolled.forming.endswith(("SPRING", "ROLL")) or rolled.forming.startswith("OUT CONC")
+    assert "DOUBLE" not in rolled.forming
+    assert 14_000 < rolled.bend_radius < rolled.bend_radius_max < 16_500
+    assert unroll_sheet(part, rolled.max_strain / 2).forming == "OUT DOUBLE CURVED"
+
+
+def test_a_bend_radius_ignores_samples_spoiled_near_a_corner():
+    from fabpanel.flat.bending import _radius_range
+
+    along = np.linspace(0.1, 0.9, 11)
+    radius = 866.0 + (1501.0 - 866.0) * along  # a cone's radius along its ruling
+    spoiled = radius.copy()
+    spoiled[[0, 1, 10]] = [40.0, 120.0, 9.0]  # one-sided differences at a near-180 corner
+    np.testing.assert_allclose(_radius_range(along, spoiled), [866.0, 1501.0], rtol=1e-9)

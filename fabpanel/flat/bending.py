@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
 from scipy.optimize import minimize_scalar
+from scipy.stats import theilslopes
 from shapely.geometry import LineString, Point, Polygon
 
 #: number of bend lines etched on a single-curved sheet
@@ -37,8 +38,10 @@ OPEN_RADIUS_RATIO = 10.0
 #: a bend line is turned by at most this much (radians) from the local ruling direction when
 #: it is fitted along its whole length
 REFINE_ANGLE = 0.1
+#: share of a bend line at either end where its radius is not read (see ``bending_of``)
+EDGE_MARGIN = 0.1
 #: a sheet counts as single-curved when its typical smaller curvature is below this share of
-#: its typical bending curvature
+#: its typical bending curvature (when its unroll strain is not known)
 SINGLE_CURVED_RATIO = 0.1
 
 
@@ -168,16 +171,44 @@ def _normal_spread(
     return float(((sampled - sampled.mean(axis=0)) ** 2).sum(axis=1).mean())
 
 
+def _radius_range(along: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """(2,) float: the smallest and largest radius along a bend line from its samples
+    ``radius`` at positions ``along``: a straight line through them by Theil and Sen (a
+    cone's radius grows linearly along its ruling; a cylinder's is constant) read at the
+    line's ends (0 and 1), so that a few samples spoiled near a corner (a third of them may
+    be) do not set the instruction."""
+    slope, intercept, _, _ = theilslopes(radius, along, method="joint")
+    ends = intercept + slope * np.array([0.0, 1.0])
+    if ends.min() <= 0:  # the fit does not hold: the middle radius both ways
+        ends = np.full(2, np.median(radius))
+    return np.sort(ends)
+
+
 def bending_of(
-    grid: np.ndarray, uv: np.ndarray, outline: np.ndarray, count: int = BEND_LINES
+    grid: np.ndarray,
+    uv: np.ndarray,
+    outline: np.ndarray,
+    count: int = BEND_LINES,
+    developable: bool | None = None,
 ) -> Bending:
-    """Classify a sheet and lay its bend lines (see the module docstring)."""
+    """Classify a sheet and lay its bend lines (see the module docstring).
+
+    developable : whether the sheet unrolled within the job's strain tolerance, when known.
+        That decides single against double curvature: it is the shop's criterion (what rolls
+        onto its ribs within tolerance is rolled), and the ratio of the principal curvatures
+        (used when it is not known) calls a gently curved sheet double-curved where its
+        residual curvature is a few millimetres of sagitta (a 1.6 m sheet rolled at R 15 m
+        with 1/75 m left over: 4 mm, unrolling at 1e-4 strain)."""
     ruling, bending, residual = curvature_field(grid, uv)
     diagonal = float(np.linalg.norm(np.ptp(uv.reshape(-1, 2), axis=0)))
     big = np.abs(bending)
     if big.max() * diagonal**2 / 8 < FLAT_SAGITTA:
         return Bending("flat", np.zeros((0, 2, 2)), np.zeros((0, 2)), False)
-    if np.median(np.abs(residual)) > SINGLE_CURVED_RATIO * np.median(big):
+    if developable is None:
+        double = bool(np.median(np.abs(residual)) > SINGLE_CURVED_RATIO * np.median(big))
+    else:
+        double = not developable
+    if double:
         return Bending(
             "double", np.zeros((0, 2, 2)), np.zeros((0, 2)), bool(np.median(bending) < 0)
         )
@@ -226,15 +257,16 @@ def bending_of(
         ends = _chord(seed, float(found.x), polygon, reach)
         if ends is None:
             continue
-        along = np.linspace(0.0, 1.0, 11)[:, None]
+        # the radius is read inside the sheet: at the outline the field's one-sided
+        # differences, and at a corner near 180 degrees its singular flat map, give spikes
+        # (R 1 m read on a sheet rolled at R 15 m)
+        along = np.linspace(EDGE_MARGIN, 1.0 - EDGE_MARGIN, 11)[:, None]
         samples = curvature(ends[0] + along * (ends[1] - ends[0]))
-        samples = samples[np.isfinite(samples)]
-        if not len(samples) or np.abs(samples).min() < 1e-12:
+        kept = np.isfinite(samples)
+        if kept.sum() < 3 or np.abs(samples[kept]).min() < 1e-12:
             continue
         lines.append(ends)
-        radii.append(
-            1.0 / np.abs(samples)[[np.argmax(np.abs(samples)), np.argmin(np.abs(samples))]]
-        )
+        radii.append(_radius_range(along[kept, 0], 1.0 / np.abs(samples[kept])))
     convex = bool(np.median(bending[np.abs(bending) > 0.5 * big.max()]) < 0)
     return Bending(
         "single", np.array(lines).reshape(-1, 2, 2), np.array(radii).reshape(-1, 2), convex

@@ -77,8 +77,10 @@ def _clockwise(contour: np.ndarray) -> np.ndarray:
     return contour[::-1].copy() if polygon_area(contour) > 0 else contour
 
 
-def unroll_sheet(part: Part) -> FlatPart:
-    """Unroll one sheet's ``surface_grid`` into a :class:`FlatPart`."""
+def unroll_sheet(part: Part, tolerance: float | None = None) -> FlatPart:
+    """Unroll one sheet's ``surface_grid`` into a :class:`FlatPart`. ``tolerance``: the job's
+    strain tolerance; a sheet unrolled within it is rolled (single-curved), one beyond it is
+    double-curved (without it the curvatures decide, :func:`~.bending.bending_of`)."""
     if part.surface_grid is None:
         raise GeometryError(f"sheet {part.id} has no surface_grid to unroll")
     grid = np.asarray(part.surface_grid, dtype=float)
@@ -95,7 +97,10 @@ def unroll_sheet(part: Part) -> FlatPart:
     lengths_3d = polyline_lengths(grid_sides(grid))
     try:
         # classified as seen from outside, so "OUT CONVEX" names the outer face either way
-        seen = bending_of(grid, seen_from_outside, grid_outline(seen_from_outside))
+        developable = None if tolerance is None else bool(strain <= tolerance)
+        seen = bending_of(
+            grid, seen_from_outside, grid_outline(seen_from_outside), developable=developable
+        )
         bending = dataclasses.replace(seen, lines=seen.lines * mirror)
     except (QhullError, ValueError, np.linalg.LinAlgError, shapely.errors.GEOSException) as err:
         # a degenerate (sliver) sheet, or a flat outline that crosses itself (``cut`` reports
@@ -172,8 +177,10 @@ def labelled(part: FlatPart, quantity: int) -> FlatPart:
     )
 
 
-def _lay_flat(part: Part, face: str = "") -> FlatPart:
-    return unroll_sheet(part) if part.kind.startswith("sheet") else flat_plate(part, face)
+def _lay_flat(part: Part, face: str = "", tolerance: float | None = None) -> FlatPart:
+    if part.kind.startswith("sheet"):
+        return unroll_sheet(part, tolerance)
+    return flat_plate(part, face)
 
 
 def plate_faces(parts: Sequence[Part]) -> list[str]:
@@ -223,11 +230,12 @@ def cut(model: Model, job: Job, jobs: int | None = None) -> FlatParts:
                     _lay_flat,
                     light,
                     plate_faces(light),
+                    [tolerance] * len(light),
                     chunksize=max(1, len(light) // (4 * workers)),
                 )
             )
     else:
-        flats = [_lay_flat(part, face) for part, face in zip(light, plate_faces(light))]
+        flats = [_lay_flat(part, face, tolerance) for part, face in zip(light, plate_faces(light))]
     cutting = job.cutting
 
     def drilled(hole: Hole, thickness: float) -> bool:
