@@ -90,3 +90,23 @@ def test_four_column_supports_carry_the_load(model, tmp_path):
     # symmetric vault on four symmetric columns: a quarter of the weight each
     for r in supports:
         assert r["cases_kN"]["G"][2] == pytest.approx(weight / 4, rel=0.02)
+
+
+def test_supports_all_to_one_side_of_the_centre_of_mass_are_a_warning():
+    """A 12 x 8 m roof held along one short edge is a cantilever: said, with the overhang;
+    held along both short edges, or at four corners, it is not."""
+    from fabpanel.structure.mesh import Material, patch_model
+    from fabpanel.structure.supports import cantilever_issues
+
+    xs, ys = np.linspace(0, 12_000, 13), np.linspace(0, 8_000, 9)
+    x, y = np.meshgrid(xs, ys, indexing="ij")
+    grid = np.stack([x, y, 500.0 * np.sin(np.pi * x / 12_000)], axis=-1)
+    shell, index = patch_model(grid, 3.0, Material())
+    one_end = index[0, :][index[0, :] >= 0]
+    both_ends = np.r_[one_end, index[-1, :][index[-1, :] >= 0]]
+    corners = index[[0, 0, -1, -1], [0, -1, 0, -1]]
+    found = cantilever_issues(shell.replace(supports=one_end), "supports")
+    assert [i.code for i in found] == ["supports-one-sided"]
+    assert found[0].severity == "warning" and "6.0 m away" in found[0].message
+    assert not cantilever_issues(shell.replace(supports=both_ends), "supports")
+    assert not cantilever_issues(shell.replace(supports=corners), "supports")

@@ -66,6 +66,7 @@ from .mesh import ShellModel, sandwich_model, sandwich_settings
 from .static import run_static
 from .supports import (
     anchor_nodes,
+    cantilever_issues,
     check_supports,
     layout_boundary_loops,
     lowest_sides,
@@ -313,6 +314,7 @@ def _analyse(
     panel_ids = tuple(developed.panel_ids)
     shell, joint = shell_and_joints(model, job)
     cases, case_info, issues = load_cases(shell, job)
+    issues += cantilever_issues(shell, f'[structure] supports = "{st.supports}"')
     names = [c.name for c in cases]
 
     # ---- static cases ----------------------------------------------------------------------

@@ -31,7 +31,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ..errors import GeometryError
+from ..errors import GeometryError, Issue
 from .mesh import ShellModel
 
 #: columns of ``structure/reactions.csv`` (a contract: foundation engineers' scripts read it)
@@ -191,6 +191,40 @@ def check_supports(nodes: np.ndarray, supports: np.ndarray, what: str) -> None:
             f"raise [structure] support_band or choose another [structure] "
             f"supports"
         )
+
+
+#: the supports' plan hull is grown by this share of the shell's plan diameter before the
+#: centre of mass is looked for in it (a vault on its two springing lines holds it well inside)
+CANTILEVER_MARGIN = 0.05
+
+
+def cantilever_issues(shell: ShellModel, what: str) -> list[Issue]:
+    """A warning when the shell's centre of mass (in plan) lies outside the plan hull of its
+    supported nodes: the shell is carried as a cantilever from them. Usually the supports
+    chosen do not say where the shell stands (``"lowest"`` on a shape whose lowest point is
+    one corner), and every check then fails on bending the design never meant; the checks'
+    own messages (a stronger bolt, a thicker sheet) do not point at the cause."""
+    from shapely.geometry import MultiPoint, Point
+
+    plan = shell.nodes[:, :2]
+    centre = plan.mean(axis=0)  # the nodes lie about evenly over the shell
+    supported = plan[shell.supports]
+    diameter = float(np.linalg.norm(np.ptp(plan, axis=0)))
+    hull = MultiPoint([tuple(p) for p in supported]).convex_hull
+    if hull.buffer(CANTILEVER_MARGIN * diameter).contains(Point(*centre)):
+        return []
+    extent = np.ptp(supported, axis=0) / 1000.0
+    reach = float(hull.distance(Point(*centre))) / 1000.0
+    return [
+        Issue(
+            "supports-one-sided",
+            f"{what} holds {len(shell.supports)} nodes within {extent[0]:.1f} m x "
+            f"{extent[1]:.1f} m of plan, all to one side of the shell's centre of mass "
+            f"({reach:.1f} m away in plan): the shell is checked as a cantilever from them. "
+            f"If it stands elsewhere too, name its supports ([structure] supports = "
+            f'"ranges" or "points", or a wider support_band)',
+        )
+    ]
 
 
 # --------------------------------------------------------------------------------------------
