@@ -76,6 +76,13 @@ class _Reporter:
             self._progress.stop()
 
 
+def issue_line(issue) -> str:
+    """An error-level issue's line on stderr: the item it concerns, then the message (most
+    messages begin with the item already: its id once, not twice)."""
+    named = not issue.item or issue.message.startswith(issue.item)
+    return f"  issue: {'' if named else issue.item + ': '}{issue.message}"
+
+
 def _fail(err: BaseException, debug: bool) -> None:
     if isinstance(err, KeyboardInterrupt):
         signum = getattr(err, "signum", signal.SIGINT)
@@ -190,7 +197,7 @@ def export_run(
     if not quiet:
         _print_summary(result)
     for issue in errors[:10]:
-        click.echo(f"  issue: {issue.item + ': ' if issue.item else ''}{issue.message}", err=True)
+        click.echo(issue_line(issue), err=True)
     if errors and not allow_issues:
         more = f" ({len(errors) - 10} more)" if len(errors) > 10 else ""
         click.echo(

@@ -152,3 +152,13 @@ def test_a_job_whose_surface_is_missing_names_the_key(tmp_path):
     lines = [line for line in result.stderr.splitlines() if line.strip()]
     assert len(lines) == 1 and "no_such_file.obj: file not found" in lines[0]
     assert "[input] path" in lines[0] and not (tmp_path / "out").exists()
+
+
+def test_an_issue_line_names_its_item_once():
+    from fabpanel.cli import issue_line
+    from fabpanel.errors import Issue
+
+    named = Issue("bolt-overloaded", "P001-RIB-0 bolt 0: shear 1.2", "P001-RIB-0", "error")
+    assert issue_line(named) == "  issue: P001-RIB-0 bolt 0: shear 1.2"
+    bare = Issue("panel-not-built", "not built: OCCT failed", "P002", "error")
+    assert issue_line(bare) == "  issue: P002: not built: OCCT failed"

@@ -210,3 +210,27 @@ def test_superposed_half_span_snow_equals_the_case_solved_on_its_own(joints_comp
             forces_summed[k], forces_solved[k], atol=1e-3 * f_scale, err_msg=name
         )
         assert np.array_equal(summed.dat.node_forces[k][0], solved.dat.node_forces[k][0])
+
+
+@needs_ccx
+def test_the_summary_places_its_findings_in_the_design_frame(joints_compared, tmp_path):
+    """The largest stress and deflection are placed where the issues and reactions are: in the
+    design's own frame (the layout's origin added), not the local frame the model is built in."""
+    import dataclasses
+
+    model, bolted, _ = joints_compared["bolted"]
+    origin = np.array([10_000.0, -20_000.0, 3_000.0])
+    layout = dataclasses.replace(model.developed.layout, origin=origin)
+    moved = dataclasses.replace(
+        model, developed=dataclasses.replace(model.developed, layout=layout)
+    )
+    job = fp.Job.from_dict(
+        {"structure": {"joints": "bolted", "buckling_convergence": False, "stiffeners": "mass"}}
+    )
+    shifted = analyse(moved, job, folder=tmp_path).summary
+    places = [(shifted[k]["at_mm"], bolted.summary[k]["at_mm"]) for k in ("stress", "deflection")]
+    places.append(
+        (shifted["welds"]["governing"]["at_mm"], bolted.summary["welds"]["governing"]["at_mm"])
+    )
+    for moved_place, place in places:
+        np.testing.assert_allclose(moved_place, np.add(place, origin), atol=0.11)

@@ -265,7 +265,8 @@ def test_too_many_panels_and_bad_corners_are_warnings():
     assert codes["layout-corner-angle"] == "warning"
     dense = gate_measures(layout, surface, 2000.0)
     assert dense["count_ratio"] == pytest.approx(24 / (24e6 / 4e6))
-    assert "layout-panel-count" in {i.code for i in gate_issues(layout, dense, _job("2 m"))}
+    found = {i.code: i for i in gate_issues(layout, dense, _job("2 m"))}
+    assert "try a larger panel_size" in found["layout-panel-count"].message
 
 
 # ---------------------------------------------------------------------------------------------

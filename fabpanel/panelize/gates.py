@@ -259,12 +259,20 @@ def gate_issues(layout: PanelLayout, measures: dict, job: Job) -> tuple[Issue, .
                 "layout-panel-count",
                 f"{measures['panels']} panels where the area needs about "
                 f"{measures['panels_for_area']:.0f} ({measures['count_ratio']:.2f} x, more than "
-                f"{MAX_COUNT_RATIO} x): panels are smaller than the {target:.0f} mm asked; {fix}",
+                f"{MAX_COUNT_RATIO} x): panels are smaller than the {target:.0f} mm asked; "
+                f"{_count_fix(layout.method)}",
             )
         )
     issues += _edge_issues(layout, measures, target, fix)
     issues += _corner_issues(layout, corners, measures, fix)
     return tuple(issues)
+
+
+def _count_fix(method: str) -> str:
+    """The fix for too many panels: larger ones asked for, or the other method (not the
+    smaller panel_size the other gates suggest to the field method)."""
+    other = "skeleton" if method == "field" else "field"
+    return f'try a larger panel_size, or [panelize] method = "{other}"'
 
 
 def _edge_issues(layout: PanelLayout, measures: dict, target: float, fix: str) -> list[Issue]:

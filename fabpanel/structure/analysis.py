@@ -428,6 +428,7 @@ def _analyse(
         FilletWeld.of(job),
         panel_ids,
         FilletWeld.stiffener_of(job),
+        origin=origin,
     )
     issues += weld_issues
 
@@ -531,7 +532,7 @@ def _analyse(
             "max_mm": round(max_disp, 3),
             "combination": sls[k_d].name,
             "panel": panel_ids[el_panel[e_d, 0]],
-            "at_mm": _r(shell.nodes[shell.quads[e_d, a_d]], 1),
+            "at_mm": _r(shell.nodes[shell.quads[e_d, a_d]] + origin, 1),
             "span_mm": round(span, 1),
             "limit_mm": round(limit, 2),
             "ratio": f"L/{span / max_disp:.0f}" if max_disp > 0 else "L/inf",
@@ -544,7 +545,7 @@ def _analyse(
             "combination": uls[k_u].name,
             "panel": panel_ids[el_panel[e_u, 0]],
             "part": _part_of(shell, int(e_u), panel_ids, int(el_panel[e_u, 0])),
-            "at_mm": _r(shell.nodes[shell.quads[e_u]].mean(axis=0), 1),
+            "at_mm": _r(shell.nodes[shell.quads[e_u]].mean(axis=0) + origin, 1),
             "ok": checks["stress"],
         },
         "buckling": {

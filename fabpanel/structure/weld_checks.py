@@ -168,6 +168,7 @@ def weld_checks(
     weld: FilletWeld,
     panel_ids: tuple[str, ...],
     stiffener_weld: FilletWeld | None = None,
+    origin: np.ndarray | None = None,
 ) -> tuple[dict, list[Issue]]:
     """Every junction's fillet weld under every ULS combination (``factors`` (K, C), named
     ``names``); the summary (resistance, the worst weld force and its parts, where and under
@@ -179,6 +180,7 @@ def weld_checks(
         shell, (s_bot, s_top), factors, names, weld, panel_ids, element, side, SHEET_EDGES
     )
     summary["method"] = "EN 1993-1-8 4.5.3.3 (simplified), one fillet weld per sheet edge"
+    _in_design_frame(summary, origin)
     if stiffener_weld is not None:
         element, side = stiffener_edges(shell)
         if len(element):
@@ -193,6 +195,7 @@ def weld_checks(
                 side,
                 STIFFENER_SIDES,
             )
+            _in_design_frame(stiffeners, origin)
             stiffeners["method"] = (
                 "EN 1993-1-8 4.5.3.3 (simplified), a fillet weld on both faces all round"
             )
@@ -295,6 +298,14 @@ def _edge_check(
             severity="error",
         )
     ]
+
+
+def _in_design_frame(summary: dict, origin: np.ndarray | None) -> None:
+    """The governing weld's place moved from the model's local frame into the design's, as
+    the issues and reactions are (``origin``: the layout's; None leaves it local)."""
+    governing = summary.get("governing")
+    if origin is not None and governing and "at_mm" in governing:
+        governing["at_mm"] = [round(float(v), 1) for v in np.add(governing["at_mm"], origin)]
 
 
 def _parts(traction: np.ndarray, frame: np.ndarray) -> dict:
