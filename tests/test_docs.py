@@ -442,3 +442,12 @@ def test_a_panel_with_an_error_is_on_hold_in_the_schedule_and_its_drawing(run, t
             ["pdftotext", str(path), "-"], capture_output=True, text=True, check=True
         ).stdout
         assert "HOLD: 1 error-level issue(s) on P002" in text
+
+
+def test_a_record_table_leaves_out_empty_values():
+    from fabpanel.report.blocks import record_table
+
+    table = record_table(
+        {"narrowest_panel_mm": 605.5, "outline_tip_angles_deg": [], "notes": "", "tips": {}}
+    )
+    assert [row[0] for row in table.rows] == ["narrowest panel"]

@@ -158,8 +158,13 @@ def cell(value: object, key: str = "") -> str:
 
 
 def record_table(record: dict, skip: tuple[str, ...] = ()) -> Table:
-    """A two-column table of a record's keys (spaced words, unit from the suffix) and values."""
-    rows = tuple((label(key), cell(value, key)) for key, value in record.items() if key not in skip)
+    """A two-column table of a record's keys (spaced words, unit from the suffix) and values;
+    a value that is an empty list, mapping or text has no row (it showed as a bare unit)."""
+    rows = tuple(
+        (label(key), cell(value, key))
+        for key, value in record.items()
+        if key not in skip and not (isinstance(value, (list, tuple, dict, str)) and not value)
+    )
     return Table(("measure", "value"), rows)
 
 

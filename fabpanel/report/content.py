@@ -372,7 +372,7 @@ def cutting_blocks(result) -> list[Block]:
                     (
                         thumbnail(png),
                         f"../cut/nests/{plate.name}.png",
-                        f"{plate.name}: {len(plate.placements)} parts, {plate.utilisation:.0%}",
+                        f"{plate.name}: {_count(len(plate.placements), 'part')}, {plate.utilisation:.0%}",
                     )
                 )
         if items:
@@ -428,3 +428,8 @@ def _boundary_lines(developed: dict) -> tuple[str, ...]:
             f"boundary curving in the sheet's plane (boundary-chord)"
         )
     return tuple(lines)
+
+
+def _count(n: int, noun: str) -> str:
+    """``1 part``, ``2 parts``."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
