@@ -136,3 +136,25 @@ def test_gaussian_curvature_figures_match_analytic_shapes():
     np.testing.assert_allclose(gaussian_curvature(sphere[None]), 1 / 25.0, rtol=0.01)
     cylinder = np.stack([1000.0 * b, 4000.0 * np.cos(a), 4000.0 * np.sin(a)], -1)
     assert np.abs(gaussian_curvature(cylinder[None])).max() < 1e-9
+
+
+def test_a_3d_curvature_map_of_a_developable_design_shows_its_panels():
+    """K = 0 is white on the diverging scale: without the panel outlines the 3D map of the
+    demo's vault was a blank box. The outlines are drawn, one closed loop per panel."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from conftest import cylinder_developed
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection
+
+    from fabpanel.report.develop_figures import _cells_3d
+
+    samples = np.asarray(cylinder_developed(radius=4000.0, length=12000.0, arc=np.pi).samples)
+    fig = plt.figure()
+    ax = fig.add_subplot(projection="3d")
+    _cells_3d(ax, samples, np.zeros(samples[:, 1:, 1:, 0].shape), "RdBu_r", (-1e-4, 1e-4))
+    fig.canvas.draw()  # a 3D collection's segments are its projected ones, after a draw
+    lines = [c for c in ax.collections if isinstance(c, Line3DCollection)]
+    plt.close(fig)
+    assert len(lines) == 1 and len(lines[0].get_segments()) == len(samples)

@@ -96,7 +96,7 @@ def _plan_cells(ax, samples: np.ndarray, values: np.ndarray, **style):
 
 
 def _cells_3d(ax, samples: np.ndarray, values: np.ndarray, cmap: str, clim):
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
     from .figures import view_3d
 
@@ -108,6 +108,12 @@ def _cells_3d(ax, samples: np.ndarray, values: np.ndarray, cmap: str, clim):
     cells.set_array(values.ravel())
     cells.set_clim(*clim)
     ax.add_collection3d(cells)
+    # the panel outlines, as in plan: a developable design is white all over (K = 0 at the
+    # middle of the diverging scale), and without them the 3D view of the demo looked empty
+    outline = np.concatenate(
+        [samples[:, :, 0], samples[:, -1, :], samples[:, ::-1, -1], samples[:, 0, ::-1]], axis=1
+    )
+    ax.add_collection3d(Line3DCollection(outline / 1000.0, colors="k", linewidths=0.3))
     view_3d(ax, samples.reshape(-1, 3) / 1000.0)
     return cells
 
