@@ -577,17 +577,24 @@ def test_barrel_vault_by_en1991_every_case_balances_and_each_action_leads(vault_
     assert max(s1) > 1.2 * min(s1) > 0
     with open(folder / "en1991" / "reactions.csv") as handle:
         rows = list(csv.reader(handle))
+    # the columns exactly, in its order: a script may read them by position
+    assert rows[0] == [
+        "support", "case", "fx_kN", "fy_kN", "fz_kN", "mx_kNm", "my_kNm", "mz_kNm"
+    ]  # fmt: skip
     assert tuple(rows[0]) == REACTION_COLUMNS
-    body = {(r[0], r[4]): np.array(r[5:], float) for r in rows[1:]}
+    body = {(r[0], r[1]): np.array(r[2:], float) for r in rows[1:]}
     # each support placed where the foundation engineer needs it: in the design's own frame
     # (the input's), at the springing line (the layout's lowest edge), as in summary.json
+    with open(folder / "en1991" / "supports.csv") as handle:
+        places = {r["support"]: r for r in csv.DictReader(handle)}
     layout = result.model.developed.layout
     design = np.asarray(layout.vertices) + np.asarray(layout.origin)
+    assert sorted(places) == [s["support"] for s in supports]
     for support in supports:
-        where = [np.array(r[1:4], float) for r in rows[1:] if r[0] == support["support"]]
-        np.testing.assert_allclose(where[0], support["centroid_mm"], atol=0.1)
-        assert np.all(where[0] > design.min(0) - 200) and np.all(where[0] < design.max(0) + 200)
-        assert where[0][2] < design[:, 2].min() + 300
+        where = np.array([places[support["support"]][k] for k in ("x_mm", "y_mm", "z_mm")], float)
+        np.testing.assert_allclose(where, support["centroid_mm"], atol=0.1)
+        assert np.all(where > design.min(0) - 200) and np.all(where < design.max(0) + 200)
+        assert where[2] < design[:, 2].min() + 300
     assert len(body) == len(rows) - 1 == 2 * (len(cases) + len(uls) + len(s["combinations"]["SLS"]))
     # per case, the supports add up to the total reaction
     for name, case in cases.items():

@@ -289,7 +289,10 @@ def structure_blocks(result) -> list:
     if supports:
         blocks += [
             Heading("Reactions per support", 3),
-            Text("Every case and combination per support is in structure/reactions.csv."),
+            Text(
+                "Every case and combination per support is in structure/reactions.csv, "
+                "the supports' places (the moments' centres) in structure/supports.csv."
+            ),
             Table(
                 (
                     "support",

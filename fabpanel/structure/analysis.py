@@ -351,7 +351,7 @@ def _analyse(
         [f"{c.kind} {c.name}" for c in uls + sls], np.concatenate([f_uls, f_sls])
     )
     if keep:
-        write_reactions_csv(folder / "reactions.csv", per_support, combined_supports)
+        write_reactions_csv(folder, per_support, combined_supports)
     vm_el = combined_von_mises(f_uls, s_bot, s_top)  # (K, E)
     fy = shell.material.fy
     disp_sls = combined_displacement(f_sls, u_el)  # (K, E, 8)

@@ -34,12 +34,10 @@ from scipy.sparse.csgraph import connected_components
 from ..errors import GeometryError, Issue
 from .mesh import ShellModel
 
-#: columns of ``structure/reactions.csv`` (a contract: foundation engineers' scripts read it)
+#: columns of ``structure/reactions.csv`` (a contract: foundation engineers' scripts read it,
+#: by name or by position, so nothing goes before or between them)
 REACTION_COLUMNS = (
     "support",
-    "x_mm",
-    "y_mm",
-    "z_mm",
     "case",
     "fx_kN",
     "fy_kN",
@@ -48,6 +46,8 @@ REACTION_COLUMNS = (
     "my_kNm",
     "mz_kNm",
 )
+#: columns of ``structure/supports.csv``: where each support is, the point its moments are about
+SUPPORT_COLUMNS = ("support", "x_mm", "y_mm", "z_mm")
 
 
 def layout_boundary_loops(
@@ -293,14 +293,19 @@ class SupportReactions:
         )
 
     def rows(self) -> list[list[str]]:
-        """``REACTION_COLUMNS`` rows: per support, per case; mm, kN and kN m."""
+        """``REACTION_COLUMNS`` rows: per support, per case; kN and kN m."""
         out = []
         for s, name in enumerate(self.names):
-            where = [f"{v:.1f}" for v in self.centroids[s]]
             for c, case in enumerate(self.cases):
                 values = np.r_[self.force[c, s] / 1e3, self.moment[c, s] / 1e6]
-                out.append([name, *where, case, *(f"{v:.3f}" for v in values)])
+                out.append([name, case, *(f"{v:.3f}" for v in values)])
         return out
+
+    def places(self) -> list[list[str]]:
+        """``SUPPORT_COLUMNS`` rows: each support's centroid, mm."""
+        return [
+            [name, *(f"{v:.1f}" for v in self.centroids[s])] for s, name in enumerate(self.names)
+        ]
 
 
 def support_reactions(
@@ -333,12 +338,17 @@ def support_reactions(
     return SupportReactions(names, centroids + origin, tuple(cases), force, moment)
 
 
-def write_reactions_csv(path: Path, *tables: SupportReactions) -> Path:
-    """``structure/reactions.csv``: ``REACTION_COLUMNS``, the characteristic cases then the
-    combinations."""
-    with open(path, "w", newline="") as handle:
+def write_reactions_csv(folder: Path, *tables: SupportReactions) -> list[Path]:
+    """``reactions.csv`` (``REACTION_COLUMNS``: the characteristic cases then the combinations)
+    and ``supports.csv`` (``SUPPORT_COLUMNS``: where the moments are taken about) in ``folder``."""
+    reactions, places = folder / "reactions.csv", folder / "supports.csv"
+    with open(reactions, "w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(REACTION_COLUMNS)
         for table in tables:
             writer.writerows(table.rows())
-    return path
+    with open(places, "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(SUPPORT_COLUMNS)
+        writer.writerows(tables[0].places())
+    return [reactions, places]
