@@ -114,6 +114,8 @@ def main() -> None:
                 ("scordelis_lo", validation.scordelis_lo),
                 ("pinched_hemisphere", validation.pinched_hemisphere),
                 ("plate_buckling", validation.plate_buckling),
+                ("shallow_arch", validation.shallow_arch),
+                ("lap_joint", validation.lap_joint),
             ):
                 found = run(Path(tmp) / label)
                 checks[label] = {

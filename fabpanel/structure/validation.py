@@ -206,3 +206,122 @@ def shallow_arch(folder, n: int = 24) -> dict:
         "rise_mm": rise,
         "crown_drop_mm": float(path.displacement[-1]),
     }
+
+
+def lap_chain_forces(
+    bolts: int, pitch: float, end: float, k: float, axial: float
+) -> tuple[np.ndarray, float]:
+    """Hand calculation of a lap joint of ``bolts`` bolts in a row: two bars of axial
+    stiffness ``axial`` (E A, N), ``pitch`` mm between bolts, each bar running ``end`` mm
+    past its outer bolt to its held or loaded end, the bolts shear springs ``k`` N/mm. Unit
+    load. Returns each bolt's share of the load (bolt 1 nearest plate A's held end) and the
+    joint's stretch between the two ends per newton (mm/N).
+
+    The bars' displacements at the bolts are ``a`` (plate A, held at its end) and ``b``
+    (plate B, pulled at its end): nodal equilibrium of the chain, a symmetric system of
+    2 n unknowns, solved as it stands (the classic Volkersen-type result for bolts: the
+    end bolts carry more than the middle ones)."""
+    n = bolts
+    ka, kp = axial / end, axial / pitch
+    stiffness = np.zeros((2 * n + 1, 2 * n + 1))  # a_1..a_n, b_1..b_n, the loaded end
+
+    def spring(i: int, j: int | None, value: float) -> None:
+        stiffness[i, i] += value
+        if j is not None:
+            stiffness[j, j] += value
+            stiffness[i, j] -= value
+            stiffness[j, i] -= value
+
+    spring(0, None, ka)  # plate A from its held end to bolt 1
+    for i in range(n - 1):
+        spring(i, i + 1, kp)  # plate A between bolts
+        spring(n + i, n + i + 1, kp)  # plate B between bolts
+    for i in range(n):
+        spring(i, n + i, k)  # the bolts
+    spring(2 * n - 1, 2 * n, ka)  # plate B from bolt n to its loaded end
+    load = np.zeros(2 * n + 1)
+    load[-1] = 1.0
+    u = np.linalg.solve(stiffness, load)
+    return k * (u[n : 2 * n] - u[:n]), float(u[-1])
+
+
+def lap_joint(folder, bolts: int = 3, pitch: float = 60.0, step: float = 10.0) -> dict:
+    """Two 8 mm S235 plates 60 mm wide lapped over ``bolts`` M12 8.8 bolts in a row
+    ``pitch`` mm apart, 30 mm from the plates' ends (e1), each bolt a spring between the plates' coincident nodes with the
+    stiffness of EN 1993-1-8 Table 6.11 (:class:`.connectors.BoltDesign`, as the shell model's
+    joints have), plate A held at its end, plate B pulled 30 kN in plane. The bolts' forces
+    read back from the springs' energies (:func:`.connectors.station_forces`, as the bolt
+    checks do) against :func:`lap_chain_forces`, and the worst bolt's shear utilisation
+    against F_v,Rd = 0.6 f_ub A_s / gamma_M2 = 0.6 x 800 x 84.3 / 1.25 by hand."""
+    from ..fasteners import bolt_for_hole
+    from .connectors import BoltDesign, station_forces
+    from .mesh import ShellModel, Springs
+
+    steel = Material()
+    t, width, end, load, e1 = 8.0, 60.0, 100.0, 30000.0, 30.0
+    design = BoltDesign(bolt_for_hole(13.0), "8.8", t_rib=t, gap=0.0, fu_plate=360.0, E=steel.E)
+    span = (bolts - 1) * pitch
+    ys = np.linspace(0.0, width, 5)
+
+    def plate(x0: float, x1: float):
+        xs = np.linspace(x0, x1, 2 * round((x1 - x0) / step) + 1)
+        grid = np.stack([*np.meshgrid(xs, ys, indexing="ij"), np.zeros((len(xs), 5))], -1)
+        model, index = patch_model(grid, t, steel)
+        at_bolts = [index[np.argmin(np.abs(xs - i * pitch)), 2] for i in range(bolts)]
+        return model, index, np.array(at_bolts)
+
+    a, index_a, bolts_a = plate(-end, span + e1)
+    b, index_b, bolts_b = plate(-e1, span + end)
+    offset = len(a.nodes)
+    shear = design.shear_stiffness
+    frame = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # axis, along, across
+    springs = Springs(
+        np.stack([bolts_a, bolts_b + offset], 1),
+        np.repeat(frame[None], bolts, 0),
+        np.tile([design.axial_stiffness, shear, shear], (bolts, 1)),
+    )
+    held = index_a[0]
+    model = ShellModel(
+        nodes=np.r_[a.nodes, b.nodes],
+        quads=np.r_[a.quads, b.quads + offset],
+        triangles=np.zeros((0, 6), int),
+        group=np.zeros(len(a.quads) + len(b.quads), int),
+        groups=a.groups,
+        material=steel,
+        supports=held,
+        # in plane: no deflection, and plate B held across at its loaded end's middle
+        constraints=(
+            (np.arange(len(a.nodes) + len(b.nodes)), (3,)),
+            (np.array([index_b[-1, 2] + offset]), (2,)),
+        ),
+        springs=springs,
+    )
+    forces = np.zeros((len(model.nodes), 3))
+    forces[index_b[-1] + offset, 0] = load * np.array([1, 4, 2, 4, 1]) / 12.0  # Simpson
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    deck = write_deck(model, folder / "lap.inp", [LoadCase("pull", forces=forces)])
+    run = run_ccx(deck, threads=1)
+    dat = read_dat(run.dat)
+    ids, energy = dat.spring_energy[0]
+    nodes, u = dat.spring_nodes[0]
+    table = np.zeros(3 * bolts)
+    table[ids - len(model.quads) - 1] = energy
+    disp = dict(zip(nodes.tolist(), u, strict=True))
+    relative = np.array([disp[int(j) + 1] - disp[int(i) + 1] for i, j in springs.nodes])
+    fem = station_forces(springs, table.reshape(bolts, 3), relative)[:, 1]
+    share, _ = lap_chain_forces(bolts, pitch, end, shear, steel.E * width * t)
+    hand_resistance = 0.6 * 800.0 * 84.3 / 1.25
+    worst = float(np.abs(fem).max())
+    return {
+        "value": worst,
+        "reference": float(share.max() * load),
+        "error": worst / float(share.max() * load) - 1,
+        "elements": model.n_elements,
+        "seconds": round(run.seconds, 2),
+        "bolt_forces_N": fem.tolist(),
+        "hand_forces_N": (share * load).tolist(),
+        "shear_stiffness_N_per_mm": shear,
+        "utilisation": worst / design.shear_resistance,
+        "hand_utilisation": float(share.max() * load) / hand_resistance,
+    }
