@@ -325,3 +325,25 @@ def lap_joint(folder, bolts: int = 3, pitch: float = 60.0, step: float = 10.0) -
         "utilisation": worst / design.shear_resistance,
         "hand_utilisation": float(share.max() * load) / hand_resistance,
     }
+
+
+def vault_snow_reactions(
+    radius: float, length: float, snow: float, supports_x: tuple[float, float], lighter: float
+) -> tuple[float, float, float]:
+    """Hand statics of a circular barrel vault (axis along y, crown over x = 0, springings at
+    x = -radius and +radius) under snow on the plan: ``snow`` (N/mm2) x mu_1 of the local
+    pitch (0.8 up to 30 degrees, 0 from 60), the half x < 0 at ``lighter`` of it (1: the
+    undrifted case). Two supports at ``supports_x`` (mm), their lines level and along the
+    axis: the vertical reactions follow from moments about each support line (horizontal
+    thrusts act at the springing level and do not enter). Returns the total load and the
+    two vertical reactions, N, from one-dimensional quadrature on the arc."""
+    theta = np.linspace(-np.pi / 2, np.pi / 2, 200_001)
+    x = radius * np.sin(theta)
+    pitch = np.degrees(np.abs(theta))
+    mu = np.clip(0.8 * (60.0 - pitch) / 30.0, 0.0, 0.8)
+    share = np.where(x < 0, lighter, 1.0)
+    per_theta = snow * length * mu * share * radius * np.cos(theta)  # N per radian
+    total = float(np.trapezoid(per_theta, theta))
+    left, right = supports_x
+    right_reaction = float(np.trapezoid(per_theta * (x - left), theta)) / (right - left)
+    return total, total - right_reaction, right_reaction
