@@ -259,7 +259,9 @@ def lap_joint(folder, bolts: int = 3, pitch: float = 60.0, step: float = 10.0) -
 
     steel = Material()
     t, width, end, load, e1 = 8.0, 60.0, 100.0, 30000.0, 30.0
-    design = BoltDesign(bolt_for_hole(13.0), "8.8", t_rib=t, gap=0.0, fu_plate=360.0, E=steel.E)
+    bolt = bolt_for_hole(13.0)
+    assert bolt is not None  # M12 takes a 13 mm hole
+    design = BoltDesign(bolt, "8.8", t_rib=t, gap=0.0, fu_plate=360.0, E=steel.E)
     span = (bolts - 1) * pitch
     ys = np.linspace(0.0, width, 5)
 
