@@ -32,6 +32,15 @@ def test_bolt_stiffness_and_resistances_reproduce_en_1993_1_8_worked_values():
     assert design.bearing_resistance(250.0) / 1e3 == pytest.approx(41.47, abs=0.01)
     # close bolts: alpha_b = p1 / (3 d0) - 1/4 = 0.519 -> 2.5 * 0.519 * 360 * 12 * 8 / 1.25
     assert design.bearing_resistance(30.0) / 1e3 == pytest.approx(35.9, abs=0.1)
+    # an end bolt 20 mm from its rib's end: along the rib alpha_d = e1 / (3 d0) = 0.513,
+    # 2.5 x 0.513 x 360 x 12 x 8 / 1.25 = 35.45 kN; across it k_1 = 2.8 x 20 / 13 - 1.7 = 2.61,
+    # so 2.5: the single-lap cap, 41.47 kN; the smaller governs
+    assert design.bearing_resistance(250.0, 20.0) / 1e3 == pytest.approx(35.45, abs=0.01)
+    # 10 mm: across, k_1 = 2.8 x 10 / 13 - 1.7 = 0.454 -> 0.454 x 360 x 12 x 8 / 1.25 = 12.55 kN
+    # (along: alpha_d 0.256, 17.72 kN)
+    assert design.bearing_resistance(250.0, 10.0) / 1e3 == pytest.approx(12.55, abs=0.01)
+    # the defaults' 60 mm end distance does not reduce it
+    assert design.bearing_resistance(250.0, 60.0) == design.bearing_resistance(250.0)
     # axial: 1.6 E A_s / L_b, L_b = 16 + 2 x 2.5 washers + (7.5 + 10.8) / 2
     assert design.axial_stiffness == pytest.approx(1.6 * 210000 * 84.3 / 30.15, rel=1e-9)
 
@@ -144,6 +153,12 @@ def test_bolted_joints_soften_the_shell_and_every_bolt_is_checked(joints_compare
     # one worst bolt per joint: 4 shared sides of the 2 x 2 panels
     assert bolts["joints"] == 4 and sum(row["worst_in_joint"] == "True" for row in rows) == 4
     assert max(float(row["utilisation"]) for row in rows) == pytest.approx(bolts["utilisation"])
+    # each bolt's end distance along its rib: every joint's end bolts sit about the job's
+    # 60 mm edge distance from the rib's end (measured 54.8-60 mm on the model's rib line)
+    ends: dict[str, list[float]] = {}
+    for row in rows:
+        ends.setdefault(row["joint"], []).append(float(row["end_distance_mm"]))
+    assert all(50.0 < min(e) <= 60.5 for e in ends.values()), ends
     assert r["bolts"]["checked"] is False and "rigid" in r["bolts"]["why"]
 
 

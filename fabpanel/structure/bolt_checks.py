@@ -114,7 +114,9 @@ def bolt_checks(
     shear = np.hypot(combined[..., 1], combined[..., 2])
     tension = np.maximum(combined[..., 0], 0.0)
     f_v, f_t = design.shear_resistance, design.tension_resistance
-    f_b = np.array([design.bearing_resistance(p) for p in joint.pitch])  # (b,)
+    f_b = np.array(
+        [design.bearing_resistance(p, e) for p, e in zip(joint.pitch, joint.end, strict=True)]
+    )  # (b,)
     util = np.stack(
         [
             shear / f_v,
@@ -150,6 +152,8 @@ def bolt_checks(
             "z_mm": round(float(joint.points[b, 2] + origin[2]), 1),
             "shear_kN": round(float(shear[:, b].max()) / 1e3, 3),
             "tension_kN": round(float(tension[:, b].max()) / 1e3, 3),
+            "pitch_mm": round(float(joint.pitch[b]), 1),
+            "end_distance_mm": round(float(joint.end[b]), 1),
             "bearing_resistance_kN": round(float(f_b[b]) / 1e3, 2),
             "utilisation": round(float(per_bolt[b]), 4),
             "combination": names[int(k_of[b])],
@@ -198,7 +202,8 @@ def bolt_checks(
 
 
 def write_bolts_csv(path: Path, summary: dict) -> None:
-    """One row per bolt: its position, largest shear and tension, bearing resistance,
+    """One row per bolt: its position, largest shear and tension, pitch and end distance,
+    bearing resistance,
     utilisation and governing combination (``summary["rows"]`` of :func:`bolt_checks`)."""
     rows = summary.get("rows", [])
     if not rows:

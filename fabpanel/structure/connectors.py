@@ -118,13 +118,24 @@ class BoltDesign:
     def tension_resistance(self) -> float:
         return 0.9 * self.fub * self.stress_area / GAMMA_M2
 
-    def bearing_resistance(self, pitch: float) -> float:
-        """In the thinner rib (both are ``t_rib``), with bolts ``pitch`` mm apart."""
+    def bearing_resistance(self, pitch: float, end: float = np.inf) -> float:
+        """In the thinner rib (both are ``t_rib``), with bolts ``pitch`` mm apart and the bolt
+        ``end`` mm from the nearer end of its rib, for a shear of any direction in the rib's
+        plane: the smaller of the two directions' Table 3.4 values.
+
+        - along the rib: ``alpha_d`` is ``p1 / (3 d0) - 1/4`` between bolts and
+          ``e1 / (3 d0)`` towards the rib's end, the smaller of the two (the load may push
+          either way); ``k_1 = 2.5``, the rib's edges across being its welds to the sheets;
+        - across the rib: ``alpha_d`` is not limiting (the bolt bears towards a sheet the rib
+          is welded to), ``k_1 = min(2.8 e2 / d0 - 1.7, 2.5)`` with ``e2`` the end distance.
+
+        Each capped at ``1.5 f_u d t / gamma_M2`` (one bolt row in a single lap)."""
         d0 = self.bolt.hole
-        alpha_b = min(pitch / (3 * d0) - 0.25, self.fub / self.fu_plate, 1.0)
-        full = 2.5 * alpha_b * self.fu_plate * self.bolt.d * self.t_rib / GAMMA_M2
-        single_lap = 1.5 * self.fu_plate * self.bolt.d * self.t_rib / GAMMA_M2
-        return min(full, single_lap)
+        base = self.fu_plate * self.bolt.d * self.t_rib / GAMMA_M2
+        alpha_d = min(pitch / (3 * d0) - 0.25, end / (3 * d0))
+        along = 2.5 * min(alpha_d, self.fub / self.fu_plate, 1.0)
+        across = max(min(2.8 * end / d0 - 1.7, 2.5), 0.0) * min(self.fub / self.fu_plate, 1.0)
+        return min(along, across, 1.5) * base
 
 
 def bolt_design(job) -> BoltDesign:
@@ -177,6 +188,7 @@ class JointBolts:
     weights : (b, 2) float, each bolt's share of the two stations (summing to 1).
     pitch : (b,) float, mm, distance to the nearest other bolt of its joint (its side's
         length for a lone bolt).
+    end : (b,) float, mm, distance along the rib to its nearer end (the model's rib line).
     """
 
     names: tuple[str, ...]
@@ -184,6 +196,7 @@ class JointBolts:
     stations: np.ndarray
     weights: np.ndarray
     pitch: np.ndarray
+    end: np.ndarray
 
 
 class _SpringList:
@@ -250,7 +263,7 @@ def joint_springs(
     ids = list(developed.panel_ids)
     gathered = _SpringList(design)
     names: list[str] = []
-    points, rows, weights, pitches = [], [], [], []
+    points, rows, weights, pitches, ends = [], [], [], [], []
     for p, s in zip(*np.nonzero(neighbours >= 0), strict=True):
         q = int(neighbours[p, s])
         if q < p:
@@ -274,12 +287,14 @@ def joint_springs(
         rows.append(np.stack([row_of[lower], row_of[lower + 1]], axis=1))
         weights.append(w)
         pitches.append(_nearest_other(position, float(along[-1])))
+        ends.append(np.minimum(position, along[-1] - position))
     joint = JointBolts(
         names=tuple(names),
         points=np.concatenate(points) if points else np.zeros((0, 3)),
         stations=np.concatenate(rows) if rows else np.zeros((0, 2, 3), int),
         weights=np.concatenate(weights) if weights else np.zeros((0, 2)),
         pitch=np.concatenate(pitches) if pitches else np.zeros(0),
+        end=np.concatenate(ends) if ends else np.zeros(0),
     )
     return gathered.springs(), joint
 
