@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import html
 import json
 from pathlib import Path
 
@@ -117,6 +118,15 @@ def test_output_contract(vault_run):
     # the default (global) rationalisation draws curvature before/after and the deviation map
     assert 'alt="Gaussian curvature before and after"' in report
     assert 'alt="Deviation from the design surface"' in report
+    # the structure section an engineer signs: what the check assumes, under one heading, and
+    # every support's reaction per characteristic case, forces and moments
+    structure = json.loads((out / "report" / "summary.json").read_text())["structure"]
+    assert "What the check assumes and leaves out" in report
+    assert all(html.escape(a)[:40] in report for a in structure["assumptions"])
+    assert "Reactions per support" in report and "Mx, My, Mz [kN m]" in report
+    for support in structure["supports"]["reactions"]:
+        for case in support["cases_kN"]:
+            assert f"<td>{support['support']}</td><td>{case}</td>" in report, case
 
 
 def test_step_reimports_to_the_manifest_parts(vault_run):

@@ -110,3 +110,27 @@ def test_supports_all_to_one_side_of_the_centre_of_mass_are_a_warning():
     assert found[0].severity == "warning" and "6.0 m away" in found[0].message
     assert not cantilever_issues(shell.replace(supports=both_ends), "supports")
     assert not cantilever_issues(shell.replace(supports=corners), "supports")
+
+
+def test_fixed_supports_clamp_the_whole_base_rib(model):
+    """``support_fixity = "fixed"`` holds every node of the springing ribs (their sheet
+    nodes too: two rows of anchor bolts clamp the base plate), ``"pinned"`` only the anchor
+    line between the sheets; the same two supports either way."""
+    pinned = shell_of(model, _job())
+    fixed = shell_of(model, _job(support_fixity="fixed"))
+    assert set(pinned.supports) < set(fixed.supports)
+    assert len(fixed.supports) > 2 * len(pinned.supports)
+    assert len(support_regions(pinned)[1]) == len(support_regions(fixed)[1]) == 2
+    # the pinned line lies between the sheets; the fixed base rib spans their depth
+    depth = lambda shell: np.ptp(np.linalg.norm(shell.nodes[shell.supports][:, 1:], axis=1))
+    assert depth(fixed) > 100.0 > depth(pinned)
+
+
+@needs_ccx
+def test_fixed_supports_stiffen_the_vault(model, tmp_path):
+    pinned = analyse(model, _job(), folder=tmp_path / "pinned").summary
+    fixed = analyse(model, _job(support_fixity="fixed"), folder=tmp_path / "fixed").summary
+    assert fixed["supports"]["fixity"] == "fixed" and pinned["supports"]["fixity"] == "pinned"
+    assert fixed["deflection"]["max_mm"] < pinned["deflection"]["max_mm"]
+    for summary in (pinned, fixed):
+        assert all(case["ok"] for case in summary["load_cases"].values())

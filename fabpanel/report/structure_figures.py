@@ -314,6 +314,14 @@ def structure_blocks(result) -> list:
                     for r in supports
                 ),
             ),
+            Table(
+                ("support", "case", "Fx, Fy, Fz [kN]", "Mx, My, Mz [kN m]"),
+                tuple(
+                    (r["support"], case, cell(force), cell(r["cases_kNm"][case]))
+                    for r in supports
+                    for case, force in r["cases_kN"].items()
+                ),
+            ),
         ]
     blocks += [
         Heading("Buckling modes", 3),

@@ -161,6 +161,10 @@ def support_summary(per_support, combined) -> list[dict]:
                     case: _r(per_support.force[c, s] / 1e3, 3)
                     for c, case in enumerate(per_support.cases)
                 },
+                "cases_kNm": {
+                    case: _r(per_support.moment[c, s] / 1e6, 3)
+                    for c, case in enumerate(per_support.cases)
+                },
                 "max_kN": _r(force.max(axis=0), 3),
                 "min_kN": _r(force.min(axis=0), 3),
                 "max_moment_kNm": _r(np.abs(combined.moment[:, s]).max(axis=0) / 1e6, 3),
