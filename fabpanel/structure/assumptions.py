@@ -66,8 +66,9 @@ def assumptions(job, reference_height_m: float | None, sprung: int) -> list[str]
             "series with bearing k_12 in both ribs, k_b = 1.25; the bolt's axial k_10 split "
             "between the two sheet levels, so the joint bends about the compressed sheet); "
             "clearance slip of the snug-tight bolts not modelled; contact in compression as "
-            "stiff as the bolt (softer than it is); bolts checked for shear, bearing (single "
-            "lap cap) and tension, category A/D, with the tension of a bolt row N + |M| / (h/2)"
+            "stiff as the bolt (softer than it is); bolts checked for shear, bearing (from the "
+            "pitch and the distance to the rib's end, the rib's welded edges not limiting; "
+            "single lap cap) and tension, category A/D, with the tension of a bolt row N + |M| / (h/2)"
         )
     else:
         out.append(
