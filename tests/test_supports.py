@@ -134,3 +134,35 @@ def test_fixed_supports_stiffen_the_vault(model, tmp_path):
     assert fixed["deflection"]["max_mm"] < pinned["deflection"]["max_mm"]
     for summary in (pinned, fixed):
         assert all(case["ok"] for case in summary["load_cases"].values())
+
+
+def test_lowest_is_read_on_the_design_not_on_the_developed_sheets(model):
+    """A doubly curved shell's developed sheets leave the design by up to the deviation
+    tolerance (20 mm): a springing line stays level on the design, and "lowest" still finds
+    all of it when one panel's developed samples sit 15 mm higher than the design (a 10 mm band
+    on the developed samples held one stretch of a level dome rim: a cantilever)."""
+    from dataclasses import replace
+
+    from fabpanel.structure.supports import layout_boundary_loops, lowest_sides
+
+    developed = model.developed
+    layout = developed.layout
+    sides = np.concatenate(
+        layout_boundary_loops(
+            np.asarray(layout.quads),
+            np.asarray(layout.side_neighbours),
+            np.asarray(layout.vertices),
+        )
+    )
+    found = lowest_sides(developed, sides, 10.0)
+    assert len(found) == 4  # two springing lines of two panel sides each
+    lifted = np.array(developed.samples, copy=True)
+    lifted[0, :, :, 2] += 15.0
+    np.testing.assert_array_equal(
+        lowest_sides(replace(developed, samples=lifted), sides, 10.0), found
+    )
+    # the end arcs rise from the springing: none of their sides is "lowest"
+    z = np.asarray(layout.vertices)[:, 2]
+    for p, s in found:
+        corners = np.asarray(layout.quads)[p, [s, (s + 1) % 4]]
+        assert np.ptp(z[corners]) < 1e-6

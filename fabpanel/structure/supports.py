@@ -105,16 +105,25 @@ def anchor_nodes(shell: ShellModel, ribs: np.ndarray, fixity: str) -> np.ndarray
 
 
 def lowest_sides(developed, sides: np.ndarray, band: float) -> np.ndarray:
-    """The boundary ``sides`` (k, 2) whose whole design edge lies within ``band`` mm of the
-    lowest boundary point (a level springing line is level on the design face, while its
-    anchor nodes, half the core along the sloping normal, are not); when no side lies wholly
-    within it, those that reach into it."""
-    samples = [np.asarray(developed.side_samples(p, s))[:, 2] for p, s in sides]
-    lowest = min(float(z.min()) for z in samples)
-    whole = np.array([z.max() <= lowest + band for z in samples])
+    """The boundary ``sides`` (k, 2) whose design edge (its two corners, which lie on the
+    design boundary) lies within ``band`` mm of the lowest boundary corner; when no side lies
+    wholly within it, those that reach into it.
+
+    On the design, not the developed panels: a level springing line is level there, while
+    its anchor nodes (half the core along the sloping normal) are not, and a doubly curved
+    shell's developed sheets leave the design by up to ``[develop] deviation_tolerance``
+    (20 mm on a 10 x 7 m dome whose rim is level, so a 10 mm band on the developed samples
+    held one 1 m stretch of its rim and made the shell a cantilever)."""
+    layout = developed.layout
+    quads = np.asarray(layout.quads)
+    z = np.asarray(layout.vertices, float)[:, 2]
+    sides = np.asarray(sides)
+    ends = z[np.stack([quads[sides[:, 0], sides[:, 1]], quads[sides[:, 0], (sides[:, 1] + 1) % 4]])]
+    lowest = float(ends.min())
+    whole = ends.max(axis=0) <= lowest + band
     if not whole.any():
-        whole = np.array([z.min() <= lowest + band for z in samples])
-    return np.asarray(sides)[whole]
+        whole = ends.min(axis=0) <= lowest + band
+    return sides[whole]
 
 
 def near_points(nodes: np.ndarray, candidates: np.ndarray, points: np.ndarray, radius: float):
