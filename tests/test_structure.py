@@ -802,15 +802,18 @@ def test_lowest_supports_are_the_boundary_sides_on_the_lowest_level():
     sides are chosen whole (their anchor nodes, half the core along the sloping normal, may
     spread by more than the band), the gable sides not; a boundary with no level side takes
     the sides reaching into the band."""
+    from types import SimpleNamespace
+
     from fabpanel.structure.supports import lowest_sides
 
-    class Developed:
-        def side_samples(self, p, s):
-            x = np.linspace(0, 1000, 5)
-            z = {0: 0 * x, 1: 0 * x, 2: 1.5 * x, 3: 1500 - 1.5 * x, 4: 2 + 0 * x}[p]
-            return np.stack([x, 0 * x, z], axis=1)
-
     sides = np.array([[0, 0], [1, 2], [2, 1], [3, 3], [4, 0]])
+    # each panel its own four corners; the side's two corners at the heights of its ends
+    quads = np.arange(20).reshape(5, 4)
+    vertices = np.zeros((20, 3))
+    ends = {0: (0, 0), 1: (0, 0), 2: (0, 1500), 3: (1500, 0), 4: (2, 2)}
+    for p, side in sides:
+        vertices[quads[p, [side, (side + 1) % 4]], 2] = ends[p]
+    Developed = lambda: SimpleNamespace(layout=SimpleNamespace(quads=quads, vertices=vertices))
     assert lowest_sides(Developed(), sides, 10.0).tolist() == [[0, 0], [1, 2], [4, 0]]
     assert lowest_sides(Developed(), sides[2:4], 10.0).tolist() == [[2, 1], [3, 3]]
 
