@@ -22,7 +22,8 @@ REACTION_TOLERANCE = 0.001
 
 
 def _r(values, digits: int) -> list:
-    return np.round(np.asarray(values, float), digits).tolist()
+    # + 0.0 turns a rounded -0.0 into 0.0: "0, -0, -0" in the report reads as a sign that matters
+    return (np.round(np.asarray(values, float), digits) + 0.0).tolist()
 
 
 def panels_built(model) -> np.ndarray:

@@ -307,13 +307,15 @@ class SupportReactions:
         for s, name in enumerate(self.names):
             for c, case in enumerate(self.cases):
                 values = np.r_[self.force[c, s] / 1e3, self.moment[c, s] / 1e6]
-                out.append([name, case, *(f"{v:.3f}" for v in values)])
+                # + 0.0 turns a rounded -0.0 into 0.0: no "-0.000"
+                out.append([name, case, *(f"{round(float(v), 3) + 0.0:.3f}" for v in values)])
         return out
 
     def places(self) -> list[list[str]]:
         """``SUPPORT_COLUMNS`` rows: each support's centroid, mm."""
         return [
-            [name, *(f"{v:.1f}" for v in self.centroids[s])] for s, name in enumerate(self.names)
+            [name, *(f"{round(float(v), 1) + 0.0:.1f}" for v in self.centroids[s])]
+            for s, name in enumerate(self.names)
         ]
 
 
