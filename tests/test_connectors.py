@@ -16,7 +16,8 @@ from fabpanel.structure.analysis import analyse
 from fabpanel.structure.bolt_checks import corrected_reactions
 from fabpanel.structure.ccx import LoadCase, read_dat, run_ccx, write_deck
 from fabpanel.structure.connectors import BoltDesign, station_forces
-from fabpanel.structure.mesh import Material, ShellModel, Springs, patch_model
+from fabpanel.structure.mesh import Material, Springs, patch_model
+from fabpanel.structure.validation import joined_patches
 
 needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) missing")
 
@@ -67,17 +68,7 @@ def test_spring_forces_read_back_carry_the_load_across_the_joint(tmp_path, angle
     springs = Springs(
         np.stack([edge_a, edge_b], 1), np.repeat(frame[None], 5, 0), np.tile(k, (5, 1))
     )
-    model = ShellModel(
-        nodes=np.r_[a.nodes, b.nodes],
-        quads=np.r_[a.quads, b.quads + offset],
-        triangles=np.zeros((0, 6), int),
-        group=np.zeros(len(a.quads) + len(b.quads), int),
-        groups=a.groups,
-        material=steel,
-        supports=fixed,
-        constraints=((np.arange(offset + len(b.nodes)), (3,)),),
-        springs=springs,
-    )
+    model = joined_patches(a, b, springs, fixed)
     forces = np.zeros((len(model.nodes), 3))
     weights = np.array([1, 4, 2, 4, 1]) / 12.0
     forces[load_nodes] = np.outer(weights, [600.0, 300.0, 0.0])

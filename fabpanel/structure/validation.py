@@ -19,7 +19,7 @@ import numpy as np
 
 from .ccx import LoadCase, read_dat, read_frd, run_ccx, surface_nodes, write_deck
 from .loads import area_forces, edge_forces
-from .mesh import Material, patch_model
+from .mesh import Material, ShellModel, patch_model
 
 #: Scordelis-Lo roof: vertical deflection at the free-edge midpoint, 0.3024 ft in mm
 SCORDELIS_LO_MM = 92.17
@@ -245,6 +245,23 @@ def lap_chain_forces(
     return k * (u[n : 2 * n] - u[:n]), float(u[-1])
 
 
+def joined_patches(a, b, springs, supports, constraints=()) -> ShellModel:
+    """One model of two :func:`patch_model` patches ``a`` and ``b`` (b's nodes numbered after
+    a's), joined only by ``springs`` (node pairs in that numbering), held at ``supports``,
+    every node kept in the patches' plane (z) and ``constraints`` added: a joint in plane."""
+    return ShellModel(
+        nodes=np.r_[a.nodes, b.nodes],
+        quads=np.r_[a.quads, b.quads + len(a.nodes)],
+        triangles=np.zeros((0, 6), int),
+        group=np.zeros(len(a.quads) + len(b.quads), int),
+        groups=a.groups,
+        material=a.material,
+        supports=supports,
+        constraints=((np.arange(len(a.nodes) + len(b.nodes)), (3,)), *constraints),
+        springs=springs,
+    )
+
+
 def lap_joint(folder, bolts: int = 3, pitch: float = 60.0, step: float = 10.0) -> dict:
     """Two 8 mm S235 plates 60 mm wide lapped over ``bolts`` M12 8.8 bolts in a row
     ``pitch`` mm apart, 30 mm from the plates' ends (e1), each bolt a spring between the plates' coincident nodes with the
@@ -254,8 +271,9 @@ def lap_joint(folder, bolts: int = 3, pitch: float = 60.0, step: float = 10.0) -
     checks do) against :func:`lap_chain_forces`, and the worst bolt's shear utilisation
     against F_v,Rd = 0.6 f_ub A_s / gamma_M2 = 0.6 x 800 x 84.3 / 1.25 by hand."""
     from ..fasteners import bolt_for_hole
-    from .connectors import BoltDesign, station_forces
-    from .mesh import ShellModel, Springs
+    from .bolt_checks import case_spring_forces
+    from .connectors import BoltDesign
+    from .mesh import Springs
 
     steel = Material()
     t, width, end, load, e1 = 8.0, 60.0, 100.0, 30000.0, 30.0
@@ -282,21 +300,9 @@ def lap_joint(folder, bolts: int = 3, pitch: float = 60.0, step: float = 10.0) -
         np.repeat(frame[None], bolts, 0),
         np.tile([design.axial_stiffness, shear, shear], (bolts, 1)),
     )
-    held = index_a[0]
-    model = ShellModel(
-        nodes=np.r_[a.nodes, b.nodes],
-        quads=np.r_[a.quads, b.quads + offset],
-        triangles=np.zeros((0, 6), int),
-        group=np.zeros(len(a.quads) + len(b.quads), int),
-        groups=a.groups,
-        material=steel,
-        supports=held,
-        # in plane: no deflection, and plate B held across at its loaded end's middle
-        constraints=(
-            (np.arange(len(a.nodes) + len(b.nodes)), (3,)),
-            (np.array([index_b[-1, 2] + offset]), (2,)),
-        ),
-        springs=springs,
+    # in plane: no deflection, and plate B held across at its loaded end's middle
+    model = joined_patches(
+        a, b, springs, index_a[0], ((np.array([index_b[-1, 2] + offset]), (2,)),)
     )
     forces = np.zeros((len(model.nodes), 3))
     forces[index_b[-1] + offset, 0] = load * np.array([1, 4, 2, 4, 1]) / 12.0  # Simpson
@@ -304,14 +310,7 @@ def lap_joint(folder, bolts: int = 3, pitch: float = 60.0, step: float = 10.0) -
     folder.mkdir(parents=True, exist_ok=True)
     deck = write_deck(model, folder / "lap.inp", [LoadCase("pull", forces=forces)])
     run = run_ccx(deck, threads=1)
-    dat = read_dat(run.dat)
-    ids, energy = dat.spring_energy[0]
-    nodes, u = dat.spring_nodes[0]
-    table = np.zeros(3 * bolts)
-    table[ids - len(model.quads) - 1] = energy
-    disp = dict(zip(nodes.tolist(), u, strict=True))
-    relative = np.array([disp[int(j) + 1] - disp[int(i) + 1] for i, j in springs.nodes])
-    fem = station_forces(springs, table.reshape(bolts, 3), relative)[:, 1]
+    fem = case_spring_forces(model, read_dat(run.dat))[0][:, 1]
     share, _ = lap_chain_forces(bolts, pitch, end, shear, steel.E * width * t)
     hand_resistance = 0.6 * 800.0 * 84.3 / 1.25
     worst = float(np.abs(fem).max())
