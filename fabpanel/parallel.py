@@ -35,7 +35,7 @@ import sys
 import threading
 import warnings
 from collections.abc import Callable, Iterator
-from concurrent.futures import Executor, Future, ProcessPoolExecutor
+from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -100,7 +100,7 @@ def _init_worker(parent: int, fresh: bool) -> None:
 
 def terminate_pool(pool: ProcessPoolExecutor) -> None:
     """Cancel the queued tasks and stop the workers now (terminate, then kill)."""
-    processes = list(getattr(pool, "_processes", {}).values())
+    processes = list((getattr(pool, "_processes", None) or {}).values())
     pool.shutdown(wait=False, cancel_futures=True)
     for process in processes:
         if process.is_alive():
@@ -312,6 +312,68 @@ def shared_pool(workers: int) -> Iterator[None]:
             _SHARED.reset(token)
 
 
+class SideBySide:
+    """Blocking writers started side by side, each in a thread of this process (with this
+    thread's context: the shared pool, Ray) while the starting thread goes on with its own.
+
+    The write stage's writers mostly wait on worker processes, or run in compiled code
+    (OCCT, rhino3dm, Agg); one after another they left a core idle half the time. With one
+    worker everything runs inline, at once, in the order started."""
+
+    def __init__(self, workers: int) -> None:
+        self._threads = (
+            ThreadPoolExecutor(max_workers=4, thread_name_prefix="fabpanel-write")
+            if workers > 1
+            else None
+        )
+        self._started: list[Future] = []
+
+    def start(self, fn: Callable[..., Any], *args: Any) -> Future:
+        """``fn(*args)`` started; its future (inline: done, or raising at once)."""
+        if self._threads is None:
+            done: Future = Future()
+            done.set_result(fn(*args))
+            return done
+        future = self._threads.submit(contextvars.copy_context().run, fn, *args)
+        self._started.append(future)
+        return future
+
+    def join(self) -> None:
+        """Wait for every writer; raise the first error."""
+        for future in self._started:
+            future.result()
+
+    def stop(self) -> None:
+        """Stop the shared worker pool (the writers' waits on it end at once), then wait for
+        the writers, whatever they raise: nothing of theirs outlives the stage."""
+        shared = _SHARED.get()
+        if isinstance(shared, ProcessPoolExecutor):
+            terminate_pool(shared)
+        for future in self._started:
+            future.cancel()
+        wait(self._started)
+
+    def close(self) -> None:
+        if self._threads is not None:
+            self._threads.shutdown(wait=True)
+
+
+@contextmanager
+def side_by_side(workers: int) -> Iterator[SideBySide]:
+    """A :class:`SideBySide` whose writers have all finished on leaving; when the body or a
+    writer raises (an error, Ctrl-C, SIGTERM), the workers are stopped and the writers waited
+    for before the error goes on."""
+    lanes = SideBySide(workers)
+    try:
+        yield lanes
+        lanes.join()
+    except BaseException:
+        lanes.stop()
+        raise
+    finally:
+        lanes.close()
+
+
 def remove_temp_dir() -> None:
     """Remove multiprocessing's temporary folder of this process (``pymp-*``, the fork
     server's socket): it goes at the interpreter's exit, which a run stopped by a signal skips
@@ -342,6 +404,7 @@ __all__ = [
     "ray_active",
     "remove_temp_dir",
     "shared_pool",
+    "side_by_side",
     "terminate_pool",
     "worker_pool",
 ]

@@ -368,3 +368,48 @@ def test_library_warnings_become_issues_not_stderr():
     issues = warning_issues("develop", caught)
     assert len(issues) == 1 and issues[0].code == "library-warning"
     assert "3 times" in issues[0].message and "develop" in issues[0].message
+
+
+def test_writers_side_by_side_share_the_pool_and_stop_together_when_one_fails():
+    import threading
+
+    from fabpanel.parallel import shared_pool, side_by_side, worker_pool
+
+    def pool_of_a_writer():
+        with worker_pool(2, fresh=True) as pool:
+            return pool
+
+    def waits_on_a_worker():
+        with worker_pool(2, fresh=True) as pool:
+            return pool.submit(time.sleep, 120).result()
+
+    def fails():
+        raise RuntimeError("a writer failed")
+
+    with shared_pool(2), side_by_side(2) as lanes, worker_pool(2, fresh=True) as shared:
+        assert lanes.start(pool_of_a_writer).result() is shared  # not a pool of its own
+    begun = time.monotonic()
+    with (
+        pytest.raises(RuntimeError, match="a writer failed"),
+        shared_pool(2),
+        side_by_side(2) as lanes,
+    ):
+        waiting = lanes.start(waits_on_a_worker)
+        time.sleep(0.5)
+        lanes.start(fails).result()
+    # the waiting writer's worker was stopped, not waited for (it sleeps 120 s)
+    assert time.monotonic() - begun < 30
+    assert waiting.done()
+    assert not [t for t in threading.enumerate() if t.name.startswith("fabpanel-write")]
+
+
+def test_writers_run_inline_in_order_with_one_worker():
+    from fabpanel.parallel import side_by_side
+
+    order: list[int] = []
+    with side_by_side(1) as lanes:
+        first = lanes.start(order.append, 1)
+        assert first.done() and order == [1]
+        lanes.start(order.append, 2)
+        order.append(3)
+    assert order == [1, 2, 3]

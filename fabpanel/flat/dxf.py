@@ -126,9 +126,26 @@ def add_part(msp, part: FlatPart, transform: np.ndarray | None = None, etch: boo
 
 def add_contour(msp, points: np.ndarray, layer: str, transform: np.ndarray | None = None) -> None:
     """A closed contour as one LWPOLYLINE of lines and arcs (bulges survive rigid motions)."""
-    vertices, bulges = fit_arcs(points)
+    vertices, bulges = _arcs_of(np.ascontiguousarray(points, dtype=float))
     rows = np.column_stack([_apply(transform, vertices), bulges])
     msp.add_lwpolyline(rows.tolist(), format="xyb", close=True, dxfattribs={"layer": layer})
+
+
+#: contours whose arcs a worker keeps: a mark's contours recur on every plate that holds one of
+#: its parts (in the plate's block), and fitting was a third of a plate DXF's time
+_FITTED_CONTOURS = 512
+_fitted: dict[tuple[tuple[int, ...], bytes], tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _arcs_of(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`fit_arcs` of a contour, remembered by its coordinates' bytes (the same contour,
+    the same fit: the fit is deterministic)."""
+    key = (points.shape, points.tobytes())
+    if key not in _fitted:
+        if len(_fitted) >= _FITTED_CONTOURS:
+            _fitted.pop(next(iter(_fitted)))  # the oldest
+        _fitted[key] = fit_arcs(points)
+    return _fitted[key]
 
 
 def save(doc, path: str | Path, extents: tuple[tuple, tuple] | None = None) -> Path:

@@ -3,7 +3,7 @@
 A plate DXF holds one block per part mark (the mark's first part: etching, inner contours, outer
 contour, in cut order) and an INSERT per part placed; the plate outline is on ``PLATE``, a layer
 never cut (and not plotted). The PNG is a quick matplotlib preview (parts
-filled, labelled with their ids, bend lines in green), about 0.2 s per plate.
+filled, labelled with their ids, bend lines in green), about 0.06 s per plate.
 """
 
 from __future__ import annotations
@@ -16,8 +16,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.collections import LineCollection
-from matplotlib.patches import PathPatch
+from matplotlib.collections import LineCollection, PathCollection
 from matplotlib.path import Path as MplPath
 from shapely.geometry import Polygon
 
@@ -92,40 +91,51 @@ def write_plate_png(
     length, width = plate.size
     fig, ax = plt.subplots(figsize=(12, 12 * width / length + 0.6))
     ax.add_patch(plt.Rectangle((0, 0), length, width, fill=False, lw=1.0, ec="black"))
+    shapes, bends = [], []
     for placement in plate.placements:
         part = parts[placement.part_id]
         t = np.asarray(placement.transform)
         outline = transform_points(t, part.outline)
         contours = [outline] + [transform_points(t, h) for h in part.holes]
         for hole in part.round_holes + part.drill_holes:
-            angle = np.linspace(0, 2 * np.pi, 24, endpoint=False)
-            circle = np.stack([np.cos(angle), np.sin(angle)], 1) * hole.diameter / 2
-            contours.append(transform_points(t, circle + hole.centre)[::-1])
-        ax.add_patch(PathPatch(_contour_path(contours), fc="#9ecae1", ec="#08519c", lw=0.6))
-        marks = bend_marks(part)
-        if marks:
-            ax.add_collection(
-                LineCollection(
-                    [transform_points(t, line) for line in marks],
-                    colors="#31a354",
-                    linewidths=0.5,
-                )
-            )
+            contours.append(transform_points(t, _CIRCLE * hole.diameter / 2 + hole.centre)[::-1])
+        shapes.append(_contour_path(contours))
+        bends += [transform_points(t, line) for line in bend_marks(part)]
         centre = Polygon(outline).representative_point()
         ax.text(centre.x, centre.y, part.id, ha="center", va="center", fontsize=6)
+    # one collection each, not an artist per part, and no autoscaling (the plate sets the
+    # limits): a patch per part spent most of a plate's time updating the data limits
+    ax.add_collection(
+        PathCollection(shapes, facecolors="#9ecae1", edgecolors="#08519c", linewidths=0.6),
+        autolim=False,
+    )
+    if bends:
+        ax.add_collection(LineCollection(bends, colors="#31a354", linewidths=0.5), autolim=False)
     ax.set_xlim(-20, length + 20)
     ax.set_ylim(-20, width + 20)
     ax.set_aspect("equal")
+    # no axes: the title gives the plate's size, and the ticks' artists were half the drawing
+    ax.set_axis_off()
     ax.set_title(
-        f"{plate.name}: {plate.material} {plate.thickness:g} mm, "
+        f"{plate.name}: {plate.material} {plate.thickness:g} x {length:g} x {width:g} mm, "
         f"{len(plate.placements)} parts, {plate.utilisation:.0%} used",
         fontsize=9,
     )
     # fixed margins: tight_layout measured every label again, a third of the plate's time
-    fig.subplots_adjust(left=0.05, right=0.99, bottom=0.06, top=0.92)
+    fig.subplots_adjust(left=0.01, right=0.99, bottom=0.01, top=0.93)
     Path(path).write_bytes(figure_png(fig, dpi=dpi, colours=NEST_COLOURS))
     plt.close(fig)
     return Path(path)
+
+
+#: a round hole's preview polygon, unit radius
+_CIRCLE = np.stack(
+    [
+        np.cos(np.linspace(0, 2 * np.pi, 24, endpoint=False)),
+        np.sin(np.linspace(0, 2 * np.pi, 24, endpoint=False)),
+    ],
+    1,
+)
 
 
 def write_nests(nests: Nests, flat: FlatParts, folder: str | Path) -> dict[str, list[str]]:
