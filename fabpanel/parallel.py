@@ -322,7 +322,7 @@ class SideBySide:
 
     def __init__(self, workers: int) -> None:
         self._threads = (
-            ThreadPoolExecutor(max_workers=4, thread_name_prefix="fabpanel-write")
+            ThreadPoolExecutor(max_workers=8, thread_name_prefix="fabpanel-write")
             if workers > 1
             else None
         )

@@ -100,23 +100,23 @@ def _solids_of(model: Model, workers: int) -> dict[str, object]:
     return solid_geometries([(p.id, p.brep, p.thickness, p.kind) for p in model.parts], workers)
 
 
-def _write_model_files(model: Model, job: Job, folder: Path, workers: int) -> dict:
-    """The STEP assembly, the per-panel STEPs (their names by panel id, returned) and the
-    GLB preview."""
-    from .model import write_glb, write_panel_steps, write_step_assembly
+def _write_steps(model: Model, job: Job, folder: Path, workers: int) -> dict:
+    """The STEP assembly and, when asked, the per-panel STEPs (their names by panel id)."""
+    from .model import write_panel_steps, write_step_assembly
 
-    panel_files: dict = {}
     (folder / "model").mkdir(exist_ok=True)
-    if job.output.step:
-        write_step_assembly(
-            model, folder / "model" / "assembly.step", job.material.density, workers
-        )
-    if job.output.step and job.output.step_per_panel:
-        (folder / "model" / "panels").mkdir(parents=True)
-        panel_files = write_panel_steps(model, folder / "model" / "panels")
-    if job.output.glb:
-        write_glb(model, folder / "model" / "preview.glb", workers)
-    return panel_files
+    write_step_assembly(model, folder / "model" / "assembly.step", job.material.density, workers)
+    if not job.output.step_per_panel:
+        return {}
+    (folder / "model" / "panels").mkdir(parents=True)
+    return write_panel_steps(model, folder / "model" / "panels")
+
+
+def _write_glb(model: Model, folder: Path, workers: int) -> None:
+    from .model import write_glb
+
+    (folder / "model").mkdir(exist_ok=True)
+    write_glb(model, folder / "model" / "preview.glb", workers)
 
 
 def _write_rhino(model: Model, folder: Path, solids: dict[str, object]) -> None:
@@ -170,10 +170,11 @@ def _write_files(result: Result, folder: Path, progress: Progress, workers: int)
         if model is not None and (job.output.rhino or writes_docs):
             # the IFC's and the 3DM's solids: made once, first, for both
             solids = lanes.start(timing, "solids", lambda: _solids_of(model, workers))
-        if model is not None:
-            model_files = lanes.start(
-                timing, "model", lambda: _write_model_files(model, job, folder, workers)
-            )
+        steps = None
+        if model is not None and job.output.step:
+            steps = lanes.start(timing, "step", lambda: _write_steps(model, job, folder, workers))
+        if model is not None and job.output.glb:
+            lanes.start(timing, "glb", lambda: _write_glb(model, folder, workers))
         if model is not None and job.output.rhino and solids is not None:
             lanes.start(timing, "rhino", lambda: _write_rhino(model, folder, solids.result()))
         cut_files = None
@@ -201,8 +202,8 @@ def _write_files(result: Result, folder: Path, progress: Progress, workers: int)
             documents = timing(
                 "docs", lambda: write_docs(source, folder, breps, workers, solids.result())
             )
-        if model is not None:
-            note(model_files.result(), "model/panels")
+        if steps is not None:
+            note(steps.result(), "model/panels")
         if cut_files is not None:
             part_files, plate_files = cut_files.result()
             note(part_files, "cut/parts")

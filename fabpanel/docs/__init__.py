@@ -58,16 +58,17 @@ def write_docs(
     written = [write_schedule(s, folder / "docs") for s in schedules(source)]
     written.append(write_keyplan(source, folder / "docs" / "keyplan.pdf"))
     if breps is not None:
-        written.append(write_drawings(source, breps, folder / "docs" / "drawings.pdf", workers))
         if geometry is None:
             geometry = solid_geometries(
                 [(p.id, breps[p.id], p.thickness, p.kind) for p in source.parts if p.id in breps],
                 workers,
             )
         (folder / "model").mkdir(exist_ok=True)
-        written.append(
-            write_ifc(source, geometry, joint_bolts(source), folder / "model" / "assembly.ifc")
-        )
+        # the IFC first: it runs in this process alone, the drawings' views in the workers,
+        # which in the write stage are still busy with the other files
+        ifc = write_ifc(source, geometry, joint_bolts(source), folder / "model" / "assembly.ifc")
+        written.append(write_drawings(source, breps, folder / "docs" / "drawings.pdf", workers))
+        written.append(ifc)
     return written
 
 
