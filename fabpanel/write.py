@@ -30,6 +30,9 @@ if TYPE_CHECKING:
 
 T = TypeVar("T")
 
+#: the write stage's writers, in the order the progress line gives their times
+WRITERS = ("solids", "step", "glb", "rhino", "cut", "report", "docs")
+
 
 def _written(write, *args) -> tuple[dict, dict[str, bytes]]:
     """``write(*args, folder)`` run into a scratch folder of the worker's own; its result and
@@ -125,37 +128,17 @@ def _write_rhino(model: Model, folder: Path, solids: dict[str, object]) -> None:
     write_3dm(model, folder / "model" / "design.3dm", solids)
 
 
-def write_outputs(
-    result: Result, folder: Path, progress: Progress, jobs: int | None = None
-) -> None:
-    from .parallel import shared_pool
-
-    workers = jobs or os.cpu_count() or 1
-    with shared_pool(workers):  # one start of the workers for every file
-        _write_files(result, folder, progress, workers)
-
-
-def _write_files(result: Result, folder: Path, progress: Progress, workers: int) -> None:
+def _write_side_by_side(
+    result: Result,
+    folder: Path,
+    workers: int,
+    timed: dict[str, float],
+    note: Callable[[dict, str], None],
+) -> list[Path]:
+    """Every file but the manifest and the CSVs that name the files, side by side (module
+    docstring); each writer's time into ``timed``, the files named by part or panel through
+    ``note``; the documents written."""
     job = result.job
-    started = time.perf_counter()
-    progress.start("write", None)
-    files: dict[str, list[str]] = {}
-
-    def note(mapping: dict, prefix: str) -> None:
-        for key, names in mapping.items():
-            names = [names] if isinstance(names, (str, Path)) else names
-            files.setdefault(key, []).extend(f"{prefix}/{Path(n).name}" for n in names)
-
-    if result.layout is not None:
-        from .panelize.export import write_layout_obj
-
-        (folder / "model").mkdir(exist_ok=True)
-        write_layout_obj(result.layout, folder / "model" / "panels.obj")
-    if result.developed is not None:
-        from .develop.export import write_developed_obj
-
-        write_developed_obj(result.developed, folder / "model" / "developed.obj")
-    timed: dict[str, float] = {}
 
     def timing(part: str, work: Callable[[], T]) -> T:
         begun = time.perf_counter()
@@ -182,19 +165,15 @@ def _write_files(result: Result, folder: Path, progress: Progress, workers: int)
             cut_files = lanes.start(
                 timing, "cut", lambda: _write_cut_files(flat, nests, folder / "cut", workers)
             )
-        # this thread's own writers need no file of the others': the documents' source is the
-        # manifest's content, whose file names come last
+        # this thread's own writers: the documents need no file of the others' (their source
+        # is the manifest's content, whose file names come last); the report shows the plate
+        # images, so it waits for the cut files
         source = None
         if writes_docs and model is not None:
             from .docs import DocSource
 
             source = DocSource.from_manifest(build_manifest(result, {}))
-        if job.output.report:
-            from .report import write_report
-
-            (folder / "report").mkdir()
-            timing("report", lambda: write_report(result, folder / "report", source))
-        documents = []
+        documents: list[Path] = []
         if source is not None and model is not None and solids is not None:
             from .docs import write_docs
 
@@ -208,6 +187,45 @@ def _write_files(result: Result, folder: Path, progress: Progress, workers: int)
             part_files, plate_files = cut_files.result()
             note(part_files, "cut/parts")
             note(plate_files, "cut/nests")
+        if job.output.report:
+            from .report import write_report
+
+            (folder / "report").mkdir()
+            timing("report", lambda: write_report(result, folder / "report", source))
+    return documents
+
+
+def write_outputs(
+    result: Result, folder: Path, progress: Progress, jobs: int | None = None
+) -> None:
+    from .parallel import shared_pool
+
+    workers = jobs or os.cpu_count() or 1
+    with shared_pool(workers):  # one start of the workers for every file
+        _write_files(result, folder, progress, workers)
+
+
+def _write_files(result: Result, folder: Path, progress: Progress, workers: int) -> None:
+    started = time.perf_counter()
+    progress.start("write", None)
+    files: dict[str, list[str]] = {}
+
+    def note(mapping: dict, prefix: str) -> None:
+        for key, names in mapping.items():
+            names = [names] if isinstance(names, (str, Path)) else names
+            files.setdefault(key, []).extend(f"{prefix}/{Path(n).name}" for n in names)
+
+    if result.layout is not None:
+        from .panelize.export import write_layout_obj
+
+        (folder / "model").mkdir(exist_ok=True)
+        write_layout_obj(result.layout, folder / "model" / "panels.obj")
+    if result.developed is not None:
+        from .develop.export import write_developed_obj
+
+        write_developed_obj(result.developed, folder / "model" / "developed.obj")
+    timed: dict[str, float] = {}
+    documents = _write_side_by_side(result, folder, workers, timed, note)
     manifest = build_manifest(result, files)
     if documents:
         manifest["documents"] = sorted(str(p.relative_to(folder)) for p in documents)
@@ -217,7 +235,7 @@ def _write_files(result: Result, folder: Path, progress: Progress, workers: int)
         _write_marks(result, folder / "marks.csv", files)
     written = sum(1 for path in folder.rglob("*") if path.is_file())
     # side by side: each writer's own time, which overlap
-    split = ", ".join(f"{k} {v:.0f} s" for k, v in timed.items())
+    split = ", ".join(f"{k} {timed[k]:.0f} s" for k in WRITERS if k in timed)
     progress.finish("write", time.perf_counter() - started, f"{written} files ({split})")
 
 

@@ -118,6 +118,8 @@ def test_output_contract(vault_run):
     # the default (global) rationalisation draws curvature before/after and the deviation map
     assert 'alt="Gaussian curvature before and after"' in report
     assert 'alt="Deviation from the design surface"' in report
+    # every plate's image in the gallery (the report waits for the cut files it shows)
+    assert all(f'href="../cut/nests/{p.stem}.png"' in report for p in plates)
     # the structure section an engineer signs: what the check assumes, under one heading, and
     # every support's reaction per characteristic case, forces and moments
     structure = json.loads((out / "report" / "summary.json").read_text())["structure"]
