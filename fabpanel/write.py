@@ -15,6 +15,7 @@ import platform
 import tempfile
 import time
 from collections.abc import Callable
+from concurrent.futures import Future
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
@@ -115,11 +116,12 @@ def _write_steps(model: Model, job: Job, folder: Path, workers: int) -> dict:
     return write_panel_steps(model, folder / "model" / "panels")
 
 
-def _write_glb(model: Model, folder: Path, workers: int) -> None:
+def _write_glb(model: Model, folder: Path, workers: int, solids: Future | None) -> None:
     from .model import write_glb
 
     (folder / "model").mkdir(exist_ok=True)
-    write_glb(model, folder / "model" / "preview.glb", workers)
+    geometry = solids.result() if solids is not None else None
+    write_glb(model, folder / "model" / "preview.glb", workers, geometry)
 
 
 def _write_rhino(model: Model, folder: Path, solids: dict[str, object]) -> None:
@@ -157,7 +159,7 @@ def _write_side_by_side(
         if model is not None and job.output.step:
             steps = lanes.start(timing, "step", lambda: _write_steps(model, job, folder, workers))
         if model is not None and job.output.glb:
-            lanes.start(timing, "glb", lambda: _write_glb(model, folder, workers))
+            lanes.start(timing, "glb", lambda: _write_glb(model, folder, workers, solids))
         if model is not None and job.output.rhino and solids is not None:
             lanes.start(timing, "rhino", lambda: _write_rhino(model, folder, solids.result()))
         cut_files = None

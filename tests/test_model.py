@@ -334,6 +334,33 @@ def test_step_assembly_round_trip(model, tmp_path):
     )
 
 
+def test_the_preview_shows_the_exchange_solids_closed_and_in_place(model, tmp_path):
+    """Given the IFC's and 3DM's geometry, the GLB carries the same solids: each plate its
+    profile extruded, each sheet its mesh; every part closed, with the solid's volume."""
+    import trimesh
+
+    from fabpanel.docs.ifc import solid_geometries
+    from fabpanel.model.occ import from_brep, shape_points
+
+    geometry = solid_geometries([(p.id, p.brep, p.thickness, p.kind) for p in model.parts])
+    scene = trimesh.load(write_glb(model, tmp_path / "preview.glb", geometry=geometry))
+    assert sorted(scene.geometry) == sorted(p.id for p in model.parts)
+    for part in model.parts:
+        mesh = scene.geometry[part.id]
+        assert mesh.is_watertight, part.id
+        # m3 in the preview; a plate exact to its profile's chords, a sheet to its mesh's
+        sheet = part.kind.startswith("sheet")
+        assert mesh.volume * 1e9 == pytest.approx(part.volume, rel=5e-3 if sheet else 1e-3)
+        # in place: the part's extent (mm, Z up) is the mesh's (m, Y up)
+        points = shape_points(from_brep(part.brep))
+        low = (points.min(0) + model.developed.layout.origin) / 1000
+        np.testing.assert_allclose(
+            mesh.bounds[0],
+            [low[0], low[2], -(points.max(0)[1] + model.developed.layout.origin[1]) / 1000],
+            atol=2e-3,
+        )
+
+
 def test_step_assembly_in_chunks_is_one_tree_whatever_the_workers(model, tmp_path, monkeypatch):
     """Written a panel per chunk (so four chunks merge), by one process or two workers: the
     same entities (OCCT numbers its colours in an order of memory addresses, so they compare

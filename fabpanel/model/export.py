@@ -13,7 +13,9 @@ and written by ``STEPCAFControl_Writer`` here, with the material and metadata mo
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 from pathlib import Path
+from typing import cast
 
 import build123d as bd
 import numpy as np
@@ -209,11 +211,19 @@ GLB_DEFLECTION = (0.2, 5.0)
 GLB_ANGLE = 0.6
 
 
-def write_glb(model: Model, path: str | Path, workers: int = 1) -> Path:
+def write_glb(
+    model: Model,
+    path: str | Path,
+    workers: int = 1,
+    geometry: Mapping[str, object] | None = None,
+) -> Path:
     """A binary glTF preview: one named mesh per part (its part id), a node per panel holding
     its parts, coloured by kind; in metres with Y up, as glTF defines (the parts are mm, Z up).
-    Each part is tessellated with a deflection tied to its size (``GLB_RELATIVE``), in
-    ``workers`` worker processes; indices in 16 bits where they fit (:mod:`.glb`)."""
+    ``geometry``: the parts' exchange geometry, when the write stage made it for the IFC and
+    the 3DM (:func:`fabpanel.docs.ifc.solid_geometries`): the preview then shows the same
+    solids, a flat plate's profile extruded, a sheet's mesh as is. Other parts are tessellated
+    with a deflection tied to their size (``GLB_RELATIVE``), in ``workers`` worker processes.
+    Indices in 16 bits where they fit (:mod:`.glb`)."""
     import trimesh
 
     from .glb import narrow_indices
@@ -222,7 +232,9 @@ def write_glb(model: Model, path: str | Path, workers: int = 1) -> Path:
     origin = np.asarray(model.developed.layout.origin, dtype=float)
     # mm, Z up -> m, Y up: (x, y, z) -> (x, z, -y)
     to_gltf = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]) / 1000.0
-    meshes = dict(zip((p.id for p in model.parts), _part_meshes(list(model.parts), workers)))
+    meshes = _exchange_meshes(model.parts, geometry or {})
+    missing = [p for p in model.parts if p.id not in meshes]
+    meshes.update(zip((p.id for p in missing), _part_meshes(missing, workers)))
     scene = trimesh.Scene()
     by_panel: dict[str, list[Part]] = {}
     for part in model.parts:
@@ -252,6 +264,23 @@ def write_glb(model: Model, path: str | Path, workers: int = 1) -> Path:
         raise KernelError(f"glTF export to {path} failed")
     path.write_bytes(narrow_indices(data))
     return path
+
+
+def _exchange_meshes(
+    parts: tuple[Part, ...], geometry: Mapping[str, object]
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Part id -> (vertices mm, triangles) of every part ``geometry`` holds."""
+    from .profiles import PrismProfile, prism_mesh
+
+    meshes = {}
+    for part in parts:
+        found = geometry.get(part.id)
+        if isinstance(found, PrismProfile):
+            meshes[part.id] = prism_mesh(found)
+        elif found is not None:
+            vertices, triangles = cast(tuple[np.ndarray, np.ndarray], found)
+            meshes[part.id] = (np.asarray(vertices, dtype=float), np.asarray(triangles))
+    return meshes
 
 
 def _part_meshes(parts: list[Part], workers: int) -> list[tuple[np.ndarray, np.ndarray]]:

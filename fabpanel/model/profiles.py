@@ -90,6 +90,20 @@ def prism_profile(brep: bytes, thickness: float) -> PrismProfile | None:
     )
 
 
+def prism_mesh(profile: PrismProfile) -> tuple[np.ndarray, np.ndarray]:
+    """The plate's closed triangle mesh from its profile: ``vertices (n, 3)`` mm in the part's
+    frame and ``triangles (m, 3)`` wound outwards. manifold3d extrudes the profile (its caps
+    triangulated around the holes), in milliseconds where meshing the solid took several."""
+    import manifold3d
+
+    section = manifold3d.CrossSection([profile.outer, *profile.inner], manifold3d.FillRule.EvenOdd)
+    mesh = manifold3d.Manifold.extrude(section, profile.depth).to_mesh()
+    local = np.asarray(mesh.vert_properties, dtype=float)[:, :3]
+    # (x, z x x, z) is right-handed, so the triangles stay wound outwards
+    frame = np.stack([profile.x_axis, np.cross(profile.z_axis, profile.x_axis), profile.z_axis])
+    return profile.origin + local @ frame, np.asarray(mesh.tri_verts, dtype=np.int64)
+
+
 def _vector(value) -> np.ndarray:
     return np.array([value.X(), value.Y(), value.Z()])
 
