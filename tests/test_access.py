@@ -207,3 +207,19 @@ def test_the_reach_is_the_farthest_the_sheet_stands_over_the_slot():
     # a sheet sloping the other way keeps the reach above the bolt at least
     surface, _ = occ.bspline_surface(np.stack([u, v, 100 - 0.3 * v], axis=-1))
     assert footprint_reaches(surface, frames, {0: [design]})[0][0] == pytest.approx(100.0)
+
+
+def test_the_reach_reads_the_sheet_only_not_its_surface_past_the_edge():
+    """A slot hanging over the sheet's edge: past the edge the B-spline runs on as the
+    boundary span's polynomial (here the same slope, up and away), which is no sheet. Read
+    there, the reach grew the slot, the wider slot read farther out, and on the pavilion two
+    rounds took a 78 mm reach to hundreds of metres (minutes and gigabytes per panel)."""
+    from fabpanel.model import occ
+    from fabpanel.model.openings import footprint_reaches
+
+    design = Job.from_dict({}).sandwich.access_design().at_reach(100.0)
+    edge = 0.5 * design.slot[:, 1].max()  # the sheet ends half-way across the slot
+    u, v = np.meshgrid(np.linspace(-300, 300, 7), np.linspace(-50, edge, 7), indexing="ij")
+    surface, _ = occ.bspline_surface(np.stack([u, v, 100 + 3.0 * v], axis=-1))
+    reach = footprint_reaches(surface, {0: np.eye(4)[None]}, {0: [design]})[0][0]
+    assert 100.0 < reach <= 100 + 3.0 * edge + 1e-6

@@ -186,7 +186,7 @@ def footprint_reaches(
     along each bolt's frame z over the outline of its slot, at least the design's reach, mm.
     On a sheet curving away under the slot the tool's handle leaves the sheet farther out and
     swings wider there than at the bolt's own reach (outline points every ``FOOTPRINT_STRIDE``
-    and points not found are left out)."""
+    and points not found or beyond the sheet's edge are left out)."""
     keys = [(side, i) for side, stack in sorted(frames.items()) for i in range(len(stack))]
     if not keys:
         return {side: np.zeros(0) for side in frames}
@@ -195,13 +195,16 @@ def footprint_reaches(
         for s, i in keys
     ]
     try:
-        uv, found, _, counts = _walls_on_surface(surface, openings)
+        uv, found, inside, counts = _walls_on_surface(surface, openings)
     except KernelError:  # a degenerate panel: its sheet build will say what is wrong
         return {side: np.array([d.reach for d in designs[side]]) for side in frames}
     points = occ.surface_points(surface, uv[:, 0], uv[:, 1])
     _, stacked, _, _ = _stacked(openings)
     along = np.einsum("nd,nd->n", points - stacked[:, :3, 3], stacked[:, :3, 2])
-    along = np.where(found, along, -np.inf)
+    # only the sheet itself: beyond its edge the surface is the boundary span's cubic
+    # extrapolated, which runs metres off within a slot's width; a slot past the edge is
+    # refused anyway (opening_loops), and its reach must not feed a wider slot
+    along = np.where(found & inside, along, -np.inf)
     out = {side: np.array([d.reach for d in designs[side]]) for side in frames}
     for (side, i), chunk in zip(keys, np.split(along, np.cumsum(counts)[:-1]), strict=True):
         out[side][i] = max(out[side][i], float(chunk.max()))
