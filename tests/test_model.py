@@ -335,8 +335,8 @@ def test_step_assembly_round_trip(model, tmp_path):
 
 
 def test_the_preview_shows_the_exchange_solids_closed_and_in_place(model, tmp_path):
-    """Given the IFC's and 3DM's geometry, the GLB carries the same solids: each plate its
-    profile extruded, each sheet its mesh; every part closed, with the solid's volume."""
+    """Given the IFC's and 3DM's geometry, the GLB's plates are their profiles extruded (the
+    sheets tessellated as without it); every part closed, with the solid's volume, in place."""
     import trimesh
 
     from fabpanel.docs.ifc import solid_geometries
