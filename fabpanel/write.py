@@ -1,9 +1,13 @@
 """The write stage: every output file of a run, from the stages' results.
 
-The files are independent of each other, so they are written side by side: the per-panel and
-per-part work in the worker processes, and the writers that run in this process (the report,
-the Rhino file, the documents) meanwhile (:class:`fabpanel.parallel.SideBySide`). Only the
-manifest, the bill of materials and the marks, which name the files, wait for all of them.
+The files are independent of each other, so their writers start together
+(:func:`fabpanel.parallel.side_by_side`), each in a thread of this process over the one shared
+worker pool: the exchange solids first (the 3DM, the IFC and the GLB's plates are made from
+them), then the STEP, the GLB, the 3DM and the cut files. Meanwhile this thread writes the
+documents (the IFC in this process while the workers are busy), then, once the cut files are
+there (it shows the plate images), the report. Only the manifest, the bill of materials and
+the marks, which name the files, wait for all of them. With one worker everything runs in
+this order, one after another.
 """
 
 from __future__ import annotations
