@@ -128,13 +128,9 @@ def write_plate_png(
     return Path(path)
 
 
-#: a round hole's preview polygon, unit radius
-_CIRCLE = np.stack(
-    [
-        np.cos(np.linspace(0, 2 * np.pi, 24, endpoint=False)),
-        np.sin(np.linspace(0, 2 * np.pi, 24, endpoint=False)),
-    ],
-    1,
+#: a round hole's preview polygon, unit radius, 24 corners
+_CIRCLE = np.column_stack(
+    [np.cos(_TURN := np.linspace(0, 2 * np.pi, 24, endpoint=False)), np.sin(_TURN)]
 )
 
 
