@@ -18,7 +18,17 @@ PALETTE = 256
 
 
 def figure_png(fig, dpi: float, colours: int = PALETTE, **savefig) -> bytes:
-    """The figure as a palette PNG. ``savefig`` passes on (``bbox_inches`` and the like)."""
+    """The figure as a palette PNG. ``savefig`` passes on (``bbox_inches`` and the like);
+    without it the canvas is drawn and its pixels taken as they are, with no PNG written and
+    read back in between (a fifth of a nest preview's time)."""
+    if not savefig:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        fig.set_dpi(dpi)
+        canvas = FigureCanvasAgg(fig)
+        canvas.draw()
+        pixels = Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba())
+        return palette_png(pixels, colours)
     rendered = io.BytesIO()
     fig.savefig(rendered, format="png", dpi=dpi, metadata={"Software": None}, **savefig)
     rendered.seek(0)

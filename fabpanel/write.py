@@ -20,6 +20,7 @@ import tempfile
 import time
 from collections.abc import Callable
 from concurrent.futures import Future
+from contextlib import ExitStack
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
@@ -30,6 +31,7 @@ from .data import FlatPart, FlatParts, Model, Nests
 from .parallel import side_by_side
 
 if TYPE_CHECKING:
+    from .flat.dxf import ContourArcs
     from .job import Job
     from .pipeline import Progress, Result
 
@@ -48,16 +50,34 @@ def _written(write, *args) -> tuple[dict, dict[str, bytes]]:
     return result, files
 
 
-def _write_part_chunk(flat: FlatParts) -> tuple[dict, dict[str, bytes]]:
-    from .flat.dxf import write_parts
+def _write_part_chunk(
+    flat: FlatParts,
+) -> tuple[tuple[dict, dict[str, bytes]], dict[str, ContourArcs]]:
+    """The part DXFs of ``flat`` (:func:`_written`), and the arcs fitted to their contours by
+    part mark."""
+    from .flat.dxf import contour_arcs, write_parts
 
-    return _written(write_parts, flat)
+    written = _written(write_parts, flat)
+    return written, {p.mark or p.id: contour_arcs([p]) for p in flat.parts}
 
 
-def _write_plate_chunk(nests: Nests, flat: FlatParts) -> tuple[dict, dict[str, bytes]]:
+def _write_plate_chunk(
+    nests: Nests, flat: FlatParts, arcs: ContourArcs
+) -> tuple[dict, dict[str, bytes]]:
+    """The plate DXFs and previews of ``nests`` (:func:`_written`), the parts' contours
+    taking their arcs from ``arcs`` where the part DXFs fitted them."""
+    from .flat.dxf import given_arcs
     from .flat.nest_output import write_nests
 
-    return _written(write_nests, nests, flat)
+    with given_arcs(arcs):
+        return _written(write_nests, nests, flat)
+
+
+def _inline(work: Callable[..., T], *args) -> Future[T]:
+    """``work(*args)`` run here, as a finished future (the one-worker path of a pool)."""
+    future: Future[T] = Future()
+    future.set_result(work(*args))
+    return future
 
 
 def _saved(written: tuple[dict, dict[str, bytes]], folder: Path) -> dict:
@@ -87,15 +107,25 @@ def _write_cut_files(
         drawn.setdefault(part.mark or part.id, part)
     part_chunks = [FlatParts(parts=tuple(c)) for c in chunks(list(drawn.values()))]
     plate_chunks = [Nests(plates=tuple(c)) for c in chunks(list(nests.plates))]
-    if workers == 1:
-        part_maps = [_saved(_write_part_chunk(c), folder / "parts") for c in part_chunks]
-        plate_maps = [_saved(_write_plate_chunk(c, flat), folder / "nests") for c in plate_chunks]
-    else:
-        with worker_pool(workers, fresh=True) as pool:  # this process has run spyrrow's nests
-            part_futures = [pool.submit(_write_part_chunk, c) for c in part_chunks]
-            plate_futures = [pool.submit(_write_plate_chunk, c, flat) for c in plate_chunks]
-            part_maps = [_saved(f.result(), folder / "parts") for f in part_futures]
-            plate_maps = [_saved(f.result(), folder / "nests") for f in plate_futures]
+    marks = {p.id: p.mark or p.id for p in flat.parts}
+
+    def arcs_of(plates: Nests, fitted: dict[str, ContourArcs]) -> ContourArcs:
+        """The fits a chunk of plates needs: those of its parts' marks."""
+        needed = sorted({marks[p.part_id] for plate in plates.plates for p in plate.placements})
+        return {k: v for m in needed for k, v in fitted.get(m, {}).items()}
+
+    # the plates wait for the parts: the parts' fits go with them, each contour fitted once
+    with ExitStack() as stack:
+        submit: Callable[..., Future] = _inline
+        if workers > 1:  # this process has run spyrrow's nests: fresh workers
+            submit = stack.enter_context(worker_pool(workers, fresh=True)).submit
+        done = [f.result() for f in [submit(_write_part_chunk, c) for c in part_chunks]]
+        fitted = {k: v for _, arcs in done for k, v in arcs.items()}
+        plate_futures = [
+            submit(_write_plate_chunk, c, flat, arcs_of(c, fitted)) for c in plate_chunks
+        ]
+        part_maps = [_saved(written, folder / "parts") for written, _ in done]
+        plate_maps = [_saved(f.result(), folder / "nests") for f in plate_futures]
     drawn_files = {k: v for m in part_maps for k, v in m.items()}
     part_files = {p.id: drawn_files[drawn[p.mark or p.id].id] for p in flat.parts}
     plate_files = {k: v for m in plate_maps for k, v in m.items()}

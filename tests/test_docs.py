@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -421,6 +422,38 @@ def test_drawings_have_a_page_per_panel_type_and_true_views(run):
     side = np.linalg.norm(corners[1] - corners[0])
     assert np.ptp(points[:, 0]) == pytest.approx(side, abs=20.0)
     assert hidden  # the ribs and stiffeners under the top sheet
+
+
+def test_drawings_drawn_in_runs_of_pages_by_workers_join_in_order(run, tmp_path, monkeypatch):
+    """Each worker draws a run of pages into a PDF of its own and the runs are joined: the
+    same pages, in the same order and with the same text, as drawn in one process; each view
+    has its scale bar."""
+    from fabpanel.docs import drawings
+    from fabpanel.docs.schedules import panel_types
+    from fabpanel.model import occ, read_step_parts
+
+    if not shutil.which("pdftotext"):
+        pytest.skip("pdftotext (poppler-utils) is not installed")
+    out, _manifest = run
+    source = DocSource.from_folder(out)
+    shapes = read_step_parts(out / "model" / "assembly.step")
+    breps = {name: occ.to_brep(shape) for name, shape in shapes.items()}
+    monkeypatch.setattr(drawings, "INLINE_PAGES", 1)  # a run of pages per type, in workers
+    joined = drawings.write_drawings(source, breps, tmp_path / "joined.pdf", workers=2)
+    alone = drawings.write_drawings(source, breps, tmp_path / "alone.pdf", workers=1)
+
+    def pages(path: Path) -> list[str]:
+        text = subprocess.run(
+            ["pdftotext", "-layout", str(path), "-"], capture_output=True, text=True, check=True
+        ).stdout
+        return text.split("\f")[:-1]
+
+    names = [name for name, _ in panel_types(source)]
+    assert len(names) > 1
+    assert pages(joined) == pages(alone)
+    for page, name in zip(pages(joined), names, strict=True):
+        assert f"panel type {name} " in page
+        assert len(re.findall(r"\b\d+ mm\b", page)) >= 2  # the two views' scale bars
 
 
 def test_a_panel_with_an_error_is_on_hold_in_the_schedule_and_its_drawing(run, tmp_path):

@@ -258,3 +258,29 @@ def test_long_parts_in_rows_leave_their_tail_to_the_small_ones():
     nests = nest(flat, job)
     assert len(nests.plates) == 1 and len(nests.plates[0].placements) == 45
     assert validate_nests(nests, flat, job) == []
+
+
+def test_plate_files_take_the_part_files_fits_and_fit_nothing_again(mixed, tmp_path, monkeypatch):
+    """The write stage hands each plate writer the arcs its parts' DXFs were fitted with: the
+    plate files come out byte for byte as when each contour is fitted on the spot, and no
+    contour of a handed-over part is fitted again."""
+    from fabpanel.flat import dxf
+
+    flat, nests = mixed
+    fresh = write_nests(nests, flat, tmp_path / "fresh")
+    dxf._fitted.clear()
+    arcs = dxf.contour_arcs(flat.parts)
+    dxf._fitted.clear()
+
+    def no_fit(points):
+        raise AssertionError(f"a contour of {len(points)} points fitted again")
+
+    monkeypatch.setattr(dxf, "fit_arcs", no_fit)
+    with dxf.given_arcs(arcs):
+        given = write_nests(nests, flat, tmp_path / "given")
+    assert not dxf._given  # handed over for the block only
+    assert given == fresh
+    for dxf_name, _png in fresh.values():
+        assert (tmp_path / "given" / dxf_name).read_bytes() == (
+            tmp_path / "fresh" / dxf_name
+        ).read_bytes()

@@ -18,7 +18,8 @@ Plate files hold one block per part mark and an INSERT per part (:mod:`.nest_out
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import ezdxf
@@ -133,19 +134,47 @@ def add_contour(msp, points: np.ndarray, layer: str, transform: np.ndarray | Non
 
 #: contours whose arcs a worker keeps: a mark's contours recur on every plate that holds one of
 #: its parts (in the plate's block), and fitting was a third of a plate DXF's time
-_FITTED_CONTOURS = 512
-_fitted: dict[tuple[tuple[int, ...], bytes], tuple[np.ndarray, np.ndarray]] = {}
+_FITTED_CONTOURS = 2048
+#: a contour's fitted vertices and bulges, by its coordinates' shape and bytes
+ContourArcs = dict[tuple[tuple[int, ...], bytes], tuple[np.ndarray, np.ndarray]]
+_fitted: ContourArcs = {}
+#: fits handed to this process (:func:`given_arcs`), looked up before any is made
+_given: ContourArcs = {}
 
 
 def _arcs_of(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`fit_arcs` of a contour, remembered by its coordinates' bytes (the same contour,
     the same fit: the fit is deterministic)."""
     key = (points.shape, points.tobytes())
+    if key in _given:
+        return _given[key]
     if key not in _fitted:
         if len(_fitted) >= _FITTED_CONTOURS:
             _fitted.pop(next(iter(_fitted)))  # the oldest
         _fitted[key] = fit_arcs(points)
     return _fitted[key]
+
+
+def contour_arcs(parts: Iterable[FlatPart]) -> ContourArcs:
+    """The arcs of every fitted contour of ``parts`` (outline and inner contours), by the
+    contour's coordinates: what a plate writer in another process needs so as not to fit its
+    parts' contours again (:func:`given_arcs`)."""
+    found: ContourArcs = {}
+    for part in parts:
+        for contour in (part.outline, *part.holes):
+            points = np.ascontiguousarray(contour, dtype=float)
+            found[(points.shape, points.tobytes())] = _arcs_of(points)
+    return found
+
+
+@contextmanager
+def given_arcs(arcs: ContourArcs) -> Iterator[None]:
+    """Within the block, contours of ``arcs`` (:func:`contour_arcs`) take their fits from it."""
+    _given.update(arcs)
+    try:
+        yield
+    finally:
+        _given.clear()
 
 
 def save(doc, path: str | Path, extents: tuple[tuple, tuple] | None = None) -> Path:

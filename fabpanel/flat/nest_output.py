@@ -116,10 +116,15 @@ def write_plate_png(
     ax.set_aspect("equal")
     # no axes: the title gives the plate's size, and the ticks' artists were half the drawing
     ax.set_axis_off()
-    ax.set_title(
+    # the figure's text, not the axes' title: placing a title measures the (hidden) axes
+    fig.text(
+        0.5,
+        0.99,
         f"{plate.name}: {plate.material} {plate.thickness:g} x {length:g} x {width:g} mm, "
         f"{len(plate.placements)} parts, {plate.utilisation:.0%} used",
         fontsize=9,
+        ha="center",
+        va="top",
     )
     # fixed margins: tight_layout measured every label again, a third of the plate's time
     fig.subplots_adjust(left=0.01, right=0.99, bottom=0.01, top=0.93)

@@ -29,6 +29,17 @@ def hidden_line_view(
     """The solids seen from ``origin + view`` looking along ``-view``, with ``x_axis`` to the
     right: visible and hidden edges as (n, 2) polylines in the view's plane, mm (sharp edges
     and silhouettes), and ``points (k, 3)`` projected into the same plane (k, 2)."""
+    return hidden_line_views(breps, origin, [view], x_axis, points)[0]
+
+
+def hidden_line_views(
+    breps: Iterable[bytes],
+    origin: np.ndarray,
+    views: Iterable[np.ndarray],
+    x_axis: np.ndarray,
+    points: np.ndarray | None = None,
+) -> list[tuple[list[np.ndarray], list[np.ndarray], np.ndarray]]:
+    """:func:`hidden_line_view` for each of ``views``, the solids read and meshed once."""
     from OCP.BRep import BRep_Builder
     from OCP.BRepMesh import BRepMesh_IncrementalMesh
     from OCP.HLRAlgo import HLRAlgo_Projector
@@ -41,19 +52,22 @@ def hidden_line_view(
     for brep in breps:
         builder.Add(compound, occ.from_brep(brep))
     BRepMesh_IncrementalMesh(compound, HLR_DEFLECTION, False, HLR_ANGLE, True)
-    algo = HLRBRep_PolyAlgo()
-    algo.Load(compound)
-    frame = gp_Ax2(
-        gp_Pnt(*map(float, origin)), gp_Dir(*map(float, view)), gp_Dir(*map(float, x_axis))
-    )
-    projector = HLRAlgo_Projector(frame)
-    algo.Projector(projector)
-    algo.Update()
-    shapes = HLRBRep_PolyHLRToShape()
-    shapes.Update(algo)
-    visible = _polylines(shapes.VCompound()) + _polylines(shapes.OutLineVCompound())
-    hidden = _polylines(shapes.HCompound()) + _polylines(shapes.OutLineHCompound())
-    return visible, hidden, _projected(projector, points)
+    found = []
+    for view in views:
+        algo = HLRBRep_PolyAlgo()
+        algo.Load(compound)
+        frame = gp_Ax2(
+            gp_Pnt(*map(float, origin)), gp_Dir(*map(float, view)), gp_Dir(*map(float, x_axis))
+        )
+        projector = HLRAlgo_Projector(frame)
+        algo.Projector(projector)
+        algo.Update()
+        shapes = HLRBRep_PolyHLRToShape()
+        shapes.Update(algo)
+        visible = _segments(shapes.VCompound()) + _segments(shapes.OutLineVCompound())
+        hidden = _segments(shapes.HCompound()) + _segments(shapes.OutLineHCompound())
+        found.append((visible, hidden, _projected(projector, points)))
+    return found
 
 
 def _projected(projector, points: np.ndarray | None) -> np.ndarray:
@@ -70,26 +84,32 @@ def _projected(projector, points: np.ndarray | None) -> np.ndarray:
     return np.array(out)
 
 
-def _polylines(shape) -> list[np.ndarray]:
-    """Each edge of ``shape`` as an (n, 2) polyline (x, y of the view's plane)."""
-    from OCP.BRepAdaptor import BRepAdaptor_Curve
-    from OCP.GeomAbs import GeomAbs_Line
+def _segments(shape) -> list[np.ndarray]:
+    """Each edge of ``shape`` as a (2, 2) segment (x, y of the view's plane): the polygonal
+    algorithm's edges are straight, from one triangle side each, so their two vertices are the
+    whole edge (read so, a page's 4,000-5,000 edges take a third of the time that sampling
+    each as a curve did)."""
+    from OCP.BRep import BRep_Tool
     from OCP.TopAbs import TopAbs_EDGE
-    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopExp import TopExp, TopExp_Explorer
     from OCP.TopoDS import TopoDS
 
     if shape is None or shape.IsNull():
         return []
-    lines = []
+    ends = []
     explorer = TopExp_Explorer(shape, TopAbs_EDGE)
+    point, first, last, edge = (
+        BRep_Tool.Pnt_s,
+        TopExp.FirstVertex_s,
+        TopExp.LastVertex_s,
+        TopoDS.Edge,
+    )
     while explorer.More():
-        curve = BRepAdaptor_Curve(TopoDS.Edge(explorer.Current()))
-        count = 2 if curve.GetType() == GeomAbs_Line else 12
-        params = np.linspace(curve.FirstParameter(), curve.LastParameter(), count)
-        points = [curve.Value(float(t)) for t in params]
-        lines.append(np.array([(p.X(), p.Y()) for p in points]))
+        current = edge(explorer.Current())
+        start, end = point(first(current)), point(last(current))
+        ends.append((start.X(), start.Y(), end.X(), end.Y()))
         explorer.Next()
-    return lines
+    return list(np.array(ends).reshape(-1, 2, 2))
 
 
 def plate_normal(brep: bytes) -> np.ndarray | None:
