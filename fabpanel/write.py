@@ -3,11 +3,11 @@
 The files are independent of each other, so their writers start together
 (:func:`fabpanel.parallel.side_by_side`), each in a thread of this process over the one shared
 worker pool: the exchange solids first (the 3DM, the IFC and the GLB's plates are made from
-them), then the STEP, the GLB, the 3DM and the cut files. Meanwhile this thread writes the
-documents (the IFC in this process while the workers are busy), then, once the cut files are
-there (it shows the plate images), the report. Only the manifest, the bill of materials and
-the marks, which name the files, wait for all of them. With one worker everything runs in
-this order, one after another.
+them), then the STEP, the GLB, the 3DM, the cut files and the report, which waits for the
+cut files (it shows the plate images). Meanwhile this thread writes the documents (the IFC in
+this process while the workers are busy, then the drawings in the workers). Only the
+manifest, the bill of materials and the marks, which name the files, wait for all of them.
+With one worker everything runs in this order, one after another.
 """
 
 from __future__ import annotations
@@ -201,14 +201,26 @@ def _write_side_by_side(
             cut_files = lanes.start(
                 timing, "cut", lambda: _write_cut_files(flat, nests, folder / "cut", workers)
             )
-        # this thread's own writers: the documents need no file of the others' (their source
-        # is the manifest's content, whose file names come last); the report shows the plate
-        # images, so it waits for the cut files
+        # the documents (in this thread) and the report (a lane of its own) need no file of
+        # the others' (their source is the manifest's content, whose file names come last)
+        # but the plate images the report shows: it waits for the cut files
         source = None
         if writes_docs and model is not None:
             from .docs import DocSource
 
             source = DocSource.from_manifest(build_manifest(result, {}))
+        report = None
+        if job.output.report:
+            from .report import write_report
+
+            (folder / "report").mkdir()
+
+            def write_the_report() -> None:
+                if cut_files is not None:
+                    cut_files.result()
+                timing("report", lambda: write_report(result, folder / "report", source))
+
+            report = lanes.start(write_the_report)
         documents: list[Path] = []
         if source is not None and model is not None and solids is not None:
             from .docs import write_docs
@@ -223,11 +235,8 @@ def _write_side_by_side(
             part_files, plate_files = cut_files.result()
             note(part_files, "cut/parts")
             note(plate_files, "cut/nests")
-        if job.output.report:
-            from .report import write_report
-
-            (folder / "report").mkdir()
-            timing("report", lambda: write_report(result, folder / "report", source))
+        if report is not None:
+            report.result()
     return documents
 
 
