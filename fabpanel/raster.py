@@ -10,8 +10,14 @@ depend on its content only.
 from __future__ import annotations
 
 import io
+import threading
 
 from PIL import Image
+
+#: held while a writer draws with matplotlib's pyplot in a thread of a process where another
+#: may too (the write stage's report lane beside the documents): pyplot keeps its figures in
+#: one registry per process and is not safe to use from two threads at once
+PYPLOT = threading.Lock()
 
 #: the palette's size: 256 keeps a colour map's gradient smooth; flat drawings need fewer
 PALETTE = 256

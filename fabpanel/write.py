@@ -211,6 +211,7 @@ def _write_side_by_side(
             source = DocSource.from_manifest(build_manifest(result, {}))
         report = None
         if job.output.report:
+            from .raster import PYPLOT
             from .report import write_report
 
             (folder / "report").mkdir()
@@ -218,7 +219,8 @@ def _write_side_by_side(
             def write_the_report() -> None:
                 if cut_files is not None:
                     cut_files.result()
-                timing("report", lambda: write_report(result, folder / "report", source))
+                with PYPLOT:  # its figures, beside the documents' key plan and drawings
+                    timing("report", lambda: write_report(result, folder / "report", source))
 
             report = lanes.start(write_the_report)
         documents: list[Path] = []

@@ -147,7 +147,9 @@ def test_the_jobs_own_nest_stands_in_for_its_candidate_only_where_it_is_the_same
     asked = []
     real = stock_module._plates_on
     monkeypatch.setattr(
-        stock_module, "_plates_on", lambda items, jb, s: asked.append(s) or real(items, jb, s)
+        stock_module,
+        "_plates_on",
+        lambda items, jb, s, *scale: asked.append(s) or real(items, jb, s, *scale),
     )
     assert suggest_stock(flat, j, jobs=1, nests=nest(flat, j)) == plain
     assert (3000.0, 1500.0) not in {(s.length, s.width) for s in asked}
@@ -156,3 +158,32 @@ def test_the_jobs_own_nest_stands_in_for_its_candidate_only_where_it_is_the_same
     timed = job(nest_time="1 s")
     suggest_stock(flat, timed, jobs=1, nests=nest(flat, j))
     assert (3000.0, 1500.0) in {(s.length, s.width) for s in asked}
+
+
+def test_a_large_group_is_ranked_on_a_sample_and_its_choice_nested_in_full(monkeypatch):
+    """Above ``SAMPLE_PARTS`` parts the candidates are ranked on every k-th part, and only the
+    best of them and the job's own stock are nested with the whole group: the plates reported
+    are the whole group's real nest on the suggested size, and never more steel than the
+    job's own stock buys."""
+    import fabpanel.flat.stock as stock_module
+
+    flat, j = sheets(12), job()  # 24 sheets, ranked on 6
+    monkeypatch.setattr(stock_module, "SAMPLE_PARTS", 6)
+    whole = []
+    real = stock_module._plates_on
+
+    def counting(items, jb, s, *scale):
+        if len(items) == 24:
+            whole.append((s.length, s.width))
+        return real(items, jb, s, *scale)
+
+    monkeypatch.setattr(stock_module, "_plates_on", counting)
+    (best,) = suggest_stock(flat, j, jobs=1)
+    assert best["ranked_on_parts"] == 6
+    assert (3000.0, 1500.0) in whole and len(whole) <= 2  # the best and the job's own
+    size = {"length": f"{best['length_mm']:g} mm", "width": f"{best['width_mm']:g} mm",
+            "thickness": "3 mm"}  # fmt: skip
+    again = nest(flat, job([size]))
+    assert len(again.plates) == best["plates"]
+    np.testing.assert_allclose(again.metrics["bought_kg"], best["bought_kg"], rtol=1e-3)
+    assert best["bought_kg"] <= nest(flat, j).metrics["bought_kg"] + 1e-6

@@ -12,6 +12,7 @@ import csv
 from collections.abc import Mapping
 from pathlib import Path
 
+from ..raster import PYPLOT
 from .bolts import joint_bolts
 from .drawings import write_drawings
 from .ifc import solid_geometries, write_ifc
@@ -56,7 +57,8 @@ def write_docs(
     folder = Path(folder)
     (folder / "docs").mkdir(exist_ok=True)
     written = [write_schedule(s, folder / "docs") for s in schedules(source)]
-    written.append(write_keyplan(source, folder / "docs" / "keyplan.pdf"))
+    with PYPLOT:
+        written.append(write_keyplan(source, folder / "docs" / "keyplan.pdf"))
     if breps is not None:
         if geometry is None:
             geometry = solid_geometries(

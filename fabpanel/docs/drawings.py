@@ -82,7 +82,10 @@ def _drawn_runs(source: DocSource, pages: list[tuple], workers: int) -> Iterator
     """The pages as PDFs of a run of pages each, in order (one, drawn here, for one worker
     or a few pages)."""
     if workers <= 1 or len(pages) < INLINE_PAGES:
-        yield _drawn_pages((source, pages))
+        from ..raster import PYPLOT
+
+        with PYPLOT:  # the report may be drawing in another thread
+            yield _drawn_pages((source, pages))
         return
     from ..parallel import worker_pool
 
