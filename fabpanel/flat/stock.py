@@ -89,25 +89,44 @@ def _bought_by(candidate: tuple[tuple[str, float], StockSection], counts: dict, 
     return _bought(counts[_size_key(candidate)], stock, thickness * float(job.material.density))
 
 
-def _box_ranked(items: list[Item], job: Job, kg_per_mm2: float) -> list[tuple[float, StockSection]]:
-    """Candidates holding every part, by the steel their bounding-box nest buys."""
+def _box_counts(items: list[Item], job: Job, stocks: list[StockSection]) -> list[int | None]:
+    """Plates of each of ``stocks`` the items' bounding boxes need; None where a part fits
+    none (a worker process's task: rectpack on 2000 parts takes a quarter of a second a size,
+    and there are about 80 sizes)."""
     turns = {r % 180 for r in job.cutting.rotations} == {0, 90}
-    ranked = []
-    for stock in candidate_sizes(job, float(items[0].part.thickness)):
+    counts: list[int | None] = []
+    for stock in stocks:
         fitting = on_stock(items, job, stock)
-        if len(fitting) < len(items):
-            continue
-        plates = len(box_plates(fitting, *usable(job, stock), turns))
-        ranked.append((_bought(plates, stock, kg_per_mm2), stock))
+        fits = len(fitting) == len(items)
+        counts.append(len(box_plates(fitting, *usable(job, stock), turns)) if fits else None)
+    return counts
+
+
+def _box_ranked(
+    items: list[Item], job: Job, kg_per_mm2: float, mapped: Callable = map, split: int = 1
+) -> list[tuple[float, StockSection]]:
+    """Candidates holding every part, by the steel their bounding-box nest buys; the sizes
+    counted in ``split`` interleaved shares through ``mapped``."""
+    sizes = candidate_sizes(job, float(items[0].part.thickness))
+    shares = [sizes[i::split] for i in range(min(split, len(sizes)))]
+    counts = mapped(_box_counts, [items] * len(shares), [job] * len(shares), shares)
+    ranked = [
+        (_bought(count, stock, kg_per_mm2), stock)
+        for share, found in zip(shares, counts)
+        for stock, count in zip(share, found)
+        if count is not None
+    ]
     return sorted(ranked, key=lambda r: (r[0], r[1].length * r[1].width))
 
 
-def _candidates(items: list[Item], job: Job, thickness: float) -> list[StockSection]:
+def _candidates(
+    items: list[Item], job: Job, thickness: float, mapped: Callable = map, split: int = 1
+) -> list[StockSection]:
     """The sizes nested for real: the best plate formats and coil lengths by their boxes, and
     what the job nests on now (so the suggestion is never worse than it): the box count is only
     a rough guide to the real nest."""
     kg_per_mm2 = thickness * float(job.material.density)
-    ranked = [stock for _, stock in _box_ranked(items, job, kg_per_mm2)]
+    ranked = [stock for _, stock in _box_ranked(items, job, kg_per_mm2, mapped, split)]
     current = {(s.length, s.width) for s in job.cutting.stock_for(thickness)}
     plates = [s for s in ranked if not from_coil(s.length, s.width)]
     coil = [s for s in ranked if from_coil(s.length, s.width)]
@@ -172,17 +191,17 @@ def suggest_stock(
     groups, _ = nest_groups(flat, job)
     known = _nested_already(nests, job)
     samples = {key: _sample(items) for key, items in groups.items()}
-    candidates = [
-        (key, stock)
-        for key, items in sorted(groups.items())
-        for stock in _candidates(items, job, key[1])
-    ]
-    tasks = [c for c in candidates if _size_key(c) not in known]
-    workers = min(jobs or os.cpu_count() or 1, len(tasks))
+    workers = jobs or os.cpu_count() or 1
     with ExitStack() as stack:
         mapped: Callable = map
         if workers > 1:  # this process has run spyrrow
             mapped = stack.enter_context(worker_pool(workers, fresh=True)).map
+        candidates = [
+            (key, stock)
+            for key, items in sorted(groups.items())
+            for stock in _candidates(items, job, key[1], mapped, workers)
+        ]
+        tasks = [c for c in candidates if _size_key(c) not in known]
         # first every candidate on its group's sample (the whole group where small)
         counts = {_size_key(c): known[_size_key(c)] for c in candidates if c not in tasks}
         counts |= zip(
