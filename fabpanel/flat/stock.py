@@ -218,6 +218,8 @@ def suggest_stock(
         kept = [c for c in candidates if samples[c[0]][1] == 1.0]
         for key in sorted(k for k, (_, scale) in samples.items() if scale != 1.0):
             mine = [c for c in candidates if c[0] == key]
+            if not mine:  # no size holds every part: the group is left out
+                continue
             kept.append(min(mine, key=lambda c: (_bought_by(c, counts, job), counts[_size_key(c)])))
             current = {(s.length, s.width) for s in job.cutting.stock_for(key[1])}
             kept += [c for c in mine if (c[1].length, c[1].width) in current and c not in kept]
