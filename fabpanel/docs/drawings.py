@@ -3,13 +3,13 @@
 Each page shows the type's first panel projected from its solids with hidden lines (OCCT's
 hidden-line removal, :mod:`fabpanel.model.hlr`): a top view looking onto the outer face, side 0
 along the sheet's x axis, corners named C0..C3 and each side dimensioned (corner to corner, and
-the top sheet's edge along the surface), and a section view along side 0 with the overall height;
-each view framed, with a scale bar under it. Part marks sit at the parts' centres, bolts are
-numbered crosses; beside the views, the parts list (mark, kind, thickness, mass), each rib's
-tilt against the panel normal (0° = square to the panel, the bevel the rib's edges are cut at), the bolts' positions (along the side from its
-corner, and in the panel's frame), and the
-joint detail (section across two ribs, from the sandwich build-up: sheet set-back, fillet
-welds, erection gap, bolt). Title block with project, panel type, panels of the type,
+the top sheet's edge along the surface), and a section view along side 0 with the overall
+height; each view framed, with a scale bar under it. Part marks sit at the parts' centres,
+bolts are numbered crosses; beside the views, the parts list (mark, kind, thickness, mass),
+each rib's tilt against the panel normal (0° = square to the panel, the bevel the rib's edges
+are cut at), the bolts' positions (along the side from its corner, and in the panel's frame),
+and the joint detail (section across two ribs, from the sandwich build-up: sheet set-back,
+fillet welds, erection gap, bolt). Title block with project, panel type, panels of the type,
 revision and date.
 """
 
