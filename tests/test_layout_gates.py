@@ -187,14 +187,14 @@ def test_auto_keeps_a_field_layout_that_passes_every_gate_without_making_the_oth
 
 def test_auto_compares_both_methods_when_the_field_layout_fails_a_gate(tmp_path):
     # random seed 17 of benchmarks/random_shapes.py: three openings closer than a panel to
-    # each other leave the field layout short of the edge band (81 %: short edges scattered
-    # over strips right-sized elsewhere, so no strip is split or collapsed)
+    # each other leave the field layout short of the corner gate (a 148° corner; 90 % in
+    # 60-120°)
     layout = fp.panelize(random_surface(17, tmp_path), _job("1 m"))
     auto = layout.metrics["auto"]
     assert set(auto["scores"]) == {"skeleton", "field"}
     assert auto["chosen"] == layout.method == "field"
     assert auto["scores"]["field"] == max(auto["scores"].values())
-    assert "layout-edge-band" in auto["gates_failed"]["field"]
+    assert "layout-corner-angle" in auto["gates_failed"]["field"]
     assert "field scores" in auto["reason"]
 
 

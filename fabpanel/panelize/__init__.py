@@ -67,7 +67,7 @@ def panelize(surface: Surface, job: Job, query: SurfaceQuery | None = None) -> P
     if method == "compare":
         layout = _first_passing(surface, job, query, ("field", "skeleton"))
     else:
-        layout = _gated(_layout_by_method(method, surface, job, query), surface, job)
+        layout = _gated(_layout_by_method(method, surface, job, query), surface, job, query)
         asked_counts = job.panelize.grid_u is not None or job.panelize.grid_v is not None
         if job.panelize.method == "auto" and not asked_counts:
             # a four-sided outline can still be a poor grid (a wavy strip, a notch): then the
@@ -122,7 +122,7 @@ def _first_passing(
     """The first method's layout if it passes every gate, else the better of both."""
     if first is None:
         try:
-            first = _gated(_layout_by_method(methods[0], surface, job, query), surface, job)
+            first = _gated(_layout_by_method(methods[0], surface, job, query), surface, job, query)
         except GeometryError:
             return _better_layout(surface, job, query, methods)
     if _fails_a_gate(first) and _worth_a_skeleton(first, methods):
@@ -190,9 +190,10 @@ def on_design_boundary(layout: PanelLayout, surface: Surface, panel_size: float)
     return replace(layout, vertices=vertices)
 
 
-def _gated(layout: PanelLayout, surface: Surface, job: Job) -> PanelLayout:
-    """The layout with its gate measures in ``metrics["gates"]`` and the gates' issues."""
-    layout = on_design_boundary(layout, surface, job.panelize.panel_size)
+def _gated(layout: PanelLayout, surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
+    """The layout, polished (:func:`_polished`), with its gate measures in
+    ``metrics["gates"]`` and the gates' issues."""
+    layout = _polished(on_design_boundary(layout, surface, job.panelize.panel_size), job, query)
     measures = gate_measures(layout, surface, job.panelize.panel_size)
     measures["score"] = layout_score(measures, min_panel_width(job))
     return replace(
@@ -200,6 +201,46 @@ def _gated(layout: PanelLayout, surface: Surface, job: Job) -> PanelLayout:
         metrics={**layout.metrics, "gates": measures},
         issues=tuple(layout.issues) + gate_issues(layout, measures, job),
     )
+
+
+def _polished(layout: PanelLayout, job: Job, query: SurfaceQuery) -> PanelLayout:
+    """The field and skeleton layouts' vertices nudged into the gates' bands (:mod:`.polish`),
+    with the report in ``metrics["polish"]``; singular points stay on their vertex. A layout
+    read from the user's file stays as drawn, and a grid keeps its vertices on the surface's
+    parameter lines (its panels sized by the counts asked or derived from the panel size)."""
+    if layout.method not in ("field", "skeleton"):
+        return layout
+    from ..buildup import Buildup
+    from .polish import PolishLimits, polish_layout
+
+    long, short = Buildup.of(job).usable_plate
+    limits = PolishLimits(
+        size=job.panelize.panel_size,
+        plate=(long, short),
+        min_width=min_panel_width(job),
+    )
+    vertices, report = polish_layout(
+        layout.vertices,
+        layout.quads,
+        query,
+        DesignBoundary(query.surface),
+        limits,
+        _singular_vertices(layout, job, query),
+    )
+    return replace(layout, vertices=vertices, metrics={**layout.metrics, "polish": report})
+
+
+def _singular_vertices(layout: PanelLayout, job: Job, query: SurfaceQuery) -> np.ndarray:
+    """(n,) bool: the layout vertices within ``POINT_TOLERANCE`` of a singular point."""
+    fixed = np.zeros(len(layout.vertices), dtype=bool)
+    if not job.panelize.singular_points:
+        return fixed
+    scale = length_scale(job.input.units or "mm")
+    points = np.asarray(job.panelize.singular_points, dtype=float) * scale
+    feet, _, _ = query.closest(points - query.surface.origin)
+    gaps = np.linalg.norm(feet[:, None] - layout.vertices[None], axis=2)
+    fixed[np.argmin(gaps, axis=1)[gaps.min(axis=1) <= POINT_TOLERANCE]] = True
+    return fixed
 
 
 def _better_layout(
@@ -217,7 +258,9 @@ def _better_layout(
         if method in made:
             continue
         try:
-            made[method] = _gated(_layout_by_method(method, surface, job, query), surface, job)
+            made[method] = _gated(
+                _layout_by_method(method, surface, job, query), surface, job, query
+            )
         except GeometryError as err:
             failed[method] = str(err)
     if not made:

@@ -532,8 +532,9 @@ def _placed_without_false_corners(
 ) -> tuple[_FlatQuads, np.ndarray, dict, bool]:
     """:func:`_placed_on_plate`; where a corner of the layout on a smooth stretch of the
     outline stays wider than the gates' 135° after it, that corner dissolved
-    (:mod:`.false_corners`) and the layout placed again, kept if it scores better on the
-    gates' measures and fits the plate as well. Returns the mesh used with the results."""
+    (:mod:`.false_corners`) and the layout placed again, kept if it has fewer corners and
+    edges past the gates' hard limits, or as many and scores better on the gates' measures,
+    and fits the plate as well. Returns the mesh used with the results."""
     vertices, relaxation, fits = _placed_on_plate(domain, mesh, job)
     wide = _wide_false_corners(domain, mesh, vertices)
     if not len(wide):
@@ -548,9 +549,11 @@ def _placed_without_false_corners(
         return mesh, vertices, relaxation, fits
     edited = _FlatQuads(nodes, quads, on_curve, mesh.size)
     again, again_relaxation, again_fits = _placed_on_plate(domain, edited, job)
-    before = band_measures(vertices, mesh.quads, domain.target).score
-    after = band_measures(again, edited.quads, domain.target).score
-    if after <= before or (fits and not again_fits):
+    before = band_measures(vertices, mesh.quads, domain.target)
+    after = band_measures(again, edited.quads, domain.target)
+    # fewer corners past the hard limits first: a dissolved corner of 150° is worth a
+    # percent of corners in the band
+    if (after.hard, -after.score) >= (before.hard, -before.score) or (fits and not again_fits):
         relaxation["false_corners"] = {"dissolved": dissolved, "kept": False}
         return mesh, vertices, relaxation, fits
     again_relaxation["false_corners"] = {"dissolved": dissolved, "kept": True}

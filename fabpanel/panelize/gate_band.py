@@ -220,6 +220,7 @@ class BandMeasures:
 
     score: float
     passes: bool
+    hard: int = 0  # corners outside 45-135° and edges under 0.3 x the panel size
 
 
 def band_measures(vertices: np.ndarray, quads: np.ndarray, size: float) -> BandMeasures:
@@ -231,9 +232,11 @@ def band_measures(vertices: np.ndarray, quads: np.ndarray, size: float) -> BandM
     angles = corner_angles(vertices[quads])
     in_band = float(np.mean((relative >= EDGE_BAND[0]) & (relative <= EDGE_BAND[1])))
     good = float(np.mean((angles >= CORNER_GOOD[0]) & (angles <= CORNER_GOOD[1])))
-    short = bool(relative.min() < MIN_EDGE)
-    outside = bool(((angles < CORNER_LIMITS[0]) | (angles > CORNER_LIMITS[1])).any())
+    shorts = int(np.count_nonzero(relative < MIN_EDGE))
+    outsides = int(np.count_nonzero((angles < CORNER_LIMITS[0]) | (angles > CORNER_LIMITS[1])))
+    short, outside = shorts > 0, outsides > 0
     return BandMeasures(
         score=in_band + good - 0.5 * short - 0.5 * outside,
         passes=in_band >= MIN_BAND_SHARE and good >= MIN_GOOD_CORNERS and not short and not outside,
+        hard=shorts + outsides,
     )
