@@ -35,7 +35,7 @@ from ..surface import SurfaceQuery
 from ..units import length_scale
 from .boundary import DesignBoundary
 from .estimate import check_panel_count
-from .gates import gate_issues, gate_measures, layout_score, min_panel_width
+from .gates import gate_issues, gate_measures, layout_score, meets_every_gate, min_panel_width
 from .grid import grid_panelize, is_four_sided
 from .quality import vertex_valences
 
@@ -193,8 +193,11 @@ def on_design_boundary(layout: PanelLayout, surface: Surface, panel_size: float)
 def _gated(layout: PanelLayout, surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
     """The layout, polished (:func:`_polished`), with its gate measures in
     ``metrics["gates"]`` and the gates' issues."""
-    layout = _polished(on_design_boundary(layout, surface, job.panelize.panel_size), job, query)
+    layout = on_design_boundary(layout, surface, job.panelize.panel_size)
     measures = gate_measures(layout, surface, job.panelize.panel_size)
+    if _worth_polishing(layout, measures, job):
+        layout = _polished(layout, job, query)
+        measures = gate_measures(layout, surface, job.panelize.panel_size)
     measures["score"] = layout_score(measures, min_panel_width(job))
     return replace(
         layout,
@@ -203,13 +206,23 @@ def _gated(layout: PanelLayout, surface: Surface, job: Job, query: SurfaceQuery)
     )
 
 
+def _worth_polishing(layout: PanelLayout, measures: dict, job: Job) -> bool:
+    """Field and skeleton layouts are polished; a grid only where it fails a gate (one that
+    passes keeps its vertices on the surface's parameter lines, its panels sized by the counts
+    asked or derived from the panel size), and never one in a B-rep face's own (u, v); a
+    layout read from the user's file stays as drawn."""
+    if layout.method in ("field", "skeleton"):
+        return True
+    return (
+        layout.method == "grid"
+        and layout.parameters is None
+        and not meets_every_gate(measures, min_panel_width(job), tips_apart=True)
+    )
+
+
 def _polished(layout: PanelLayout, job: Job, query: SurfaceQuery) -> PanelLayout:
-    """The field and skeleton layouts' vertices nudged into the gates' bands (:mod:`.polish`),
-    with the report in ``metrics["polish"]``; singular points stay on their vertex. A layout
-    read from the user's file stays as drawn, and a grid keeps its vertices on the surface's
-    parameter lines (its panels sized by the counts asked or derived from the panel size)."""
-    if layout.method not in ("field", "skeleton"):
-        return layout
+    """The layout's vertices nudged into the gates' bands (:mod:`.polish`), with the report in
+    ``metrics["polish"]``; singular points stay on their vertex."""
     from ..buildup import Buildup
     from .polish import PolishLimits, polish_layout
 
