@@ -20,7 +20,7 @@ from fabpanel.model import (
     write_panel_steps,
     write_step_assembly,
 )
-from fabpanel.model.clash import find_clashes, part_solid
+from fabpanel.model.clash import SolidsOnDemand, find_clashes, part_solid
 from fabpanel.model.joints import along_polyline
 from fabpanel.model.plates import clip_polyline
 from fabpanel.model.rhino import write_3dm
@@ -239,12 +239,19 @@ def test_clash_check_finds_a_deliberate_overlap(model):
     other = _part(model, "P001", "STF-1")
     shifted = rib.frame.copy()
     shifted[:3, 3] += 20.0 * rib.frame[:3, 2]  # 20 mm into the panel: through the stiffener
-    solids = {
-        "A": part_solid(("plate", rib.outline, shifted, rib.thickness), "A"),
-        "B": part_solid(("plate", other.outline, other.frame, other.thickness), "B"),
-        "C": part_solid(("plate", rib.outline, rib.frame, rib.thickness), "C"),
+    shapes = {
+        "A": ("plate", rib.outline, shifted, rib.thickness),
+        "B": ("plate", other.outline, other.frame, other.thickness),
+        "C": ("plate", rib.outline, rib.frame, rib.thickness),
     }
+    solids = {k: part_solid(shape, k) for k, shape in shapes.items()}
     found, measures = find_clashes(solids, {"P": ["A", "B"], "Q": ["C"]}, [("P", "Q")])
+    # the solids made on demand, a panel at a time (as the build does), find the same
+    lazy, lazy_measures = find_clashes(
+        SolidsOnDemand(shapes), {"P": ["A", "B"], "Q": ["C"]}, [("P", "Q")]
+    )
+    assert [(a, b, v) for a, b, v, _ in lazy] == [(a, b, v) for a, b, v, _ in found]
+    assert lazy_measures == measures
     assert [(a, b) for a, b, *_ in found] == [("A", "B")]
     assert found[0][2] > 100.0
     # where: the centre of the common volume lies in both parts' boxes
@@ -547,3 +554,34 @@ def test_stiffeners_too_long_for_the_sides_are_skipped_and_reported(developed, j
     skipped = [i for i in long.issues if i.code == "stiffeners-skipped"]
     assert sorted(i.item for i in skipped) == list(developed.panel_ids)
     assert long.metrics["all_valid"] and long.metrics["clash"]["clashes"] == 0
+
+
+def test_the_clash_check_keeps_only_a_band_of_panel_unions_alive():
+    from fabpanel.model.clash import _visiting_order
+
+    # a 12 x 12 grid of panels numbered in a scattered order, neighbours across sides and
+    # corners: visited in reverse Cuthill-McKee order, at most about two rows are alive
+    n = 12
+    rng = np.random.default_rng(5)
+    name = {
+        (i, j): f"P{k:03d}"
+        for k, (i, j) in enumerate(
+            rng.permutation([(i, j) for i in range(n) for j in range(n)]).tolist()
+        )
+    }
+    pairs = sorted(
+        {
+            tuple(sorted((name[i, j], name[i + di, j + dj])))
+            for i in range(n)
+            for j in range(n)
+            for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1))
+            if 0 <= i + di < n and 0 <= j + dj < n
+        }
+    )
+    order, _, last = _visiting_order(sorted(name.values()), pairs)
+    assert sorted(order) == sorted(name.values())
+    alive = [sum(1 for g in order[: k + 1] if last[g] > k) for k in range(len(order))]
+    assert max(alive) <= 3 * n
+    # every pair is checked when its later panel is visited, after both unions were made
+    position = {g: k for k, g in enumerate(order)}
+    assert all(last[a] >= position[b] and last[b] >= position[a] for a, b in pairs)

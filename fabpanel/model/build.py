@@ -38,7 +38,7 @@ from ..job import Job
 from ..parallel import shared_pool, worker_pool
 from ..tolerances import TOLERANCES
 from .bolt_moves import MOVE_ROUNDS, Rooms, move_blocked_end_bolts
-from .clash import Clash, find_clashes, part_solid
+from .clash import Clash, SolidsOnDemand, find_clashes
 from .nodes import node_planes
 from .panel import build_panel
 from .records import Failure, PanelPayload, PanelResult
@@ -434,12 +434,12 @@ def _clash_check(
 ) -> tuple[list[Clash], dict[str, Any]]:
     """Clashes between the parts of each built panel and between built panels that share a
     corner (and so possibly a side); see :func:`fabpanel.model.clash.find_clashes`."""
-    solids: dict[str, Any] = {}
+    shapes: dict[str, tuple] = {}
     groups: dict[str, list[str]] = {}
     for result in results:
         groups[result.panel_id] = [part["id"] for part in result.parts]
         for part in result.parts:
-            solids[part["id"]] = part_solid(part["clash_shape"], part["id"])
+            shapes[part["id"]] = part["clash_shape"]
     quads = developed.layout.quads
     ids = developed.panel_ids
     # panels that share a corner (and so possibly a side)
@@ -456,7 +456,7 @@ def _clash_check(
             if a < b and ids[a] in groups and ids[b] in groups
         }
     )
-    return find_clashes(solids, groups, [(ids[a], ids[b]) for a, b in pairs])
+    return find_clashes(SolidsOnDemand(shapes), groups, [(ids[a], ids[b]) for a, b in pairs])
 
 
 def _rib_contact_gap(
