@@ -90,15 +90,15 @@ def polish_layout(
     one's trials change only its own panels, and a batch gives what one vertex after the
     other would."""
     vertices = vertices.copy()
+    failing = float(np.mean(_quad_failures(vertices[quads], limits))) if len(quads) else 0.0
+    if failing > MOSTLY_FAILING:
+        return vertices, {"vertices_moved": 0, "sweeps": 0, "skipped": _SKIPPED}
     original = vertices.copy()
     incident = _incident_quads(quads, len(vertices))
     colours = _colours(incident, quads)
     track = _BoundaryTrack.of(vertices, quads, boundary, fixed)
     movable = ~fixed & ~track.stays
     sweeps = 0
-    failing = float(np.mean(_quad_failures(vertices[quads], limits))) if len(quads) else 0.0
-    if failing > MOSTLY_FAILING:
-        return vertices, {"vertices_moved": 0, "sweeps": 0, "skipped": _SKIPPED}
     for sweep in range(SWEEPS):
         candidates = np.flatnonzero(movable & _touches_a_failing_panel(vertices, quads, limits))
         if not len(candidates):
