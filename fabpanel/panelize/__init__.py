@@ -94,10 +94,7 @@ def _missed_points(
     layout vertex: each point's foot on the surface against the nearest vertex."""
     if not job.panelize.singular_points:
         return ()
-    scale = length_scale(job.input.units or "mm")
-    points = np.asarray(job.panelize.singular_points, dtype=float) * scale - origin
-    feet, _, _ = query.closest(points)
-    gaps = np.linalg.norm(feet[:, None] - layout.vertices[None], axis=2).min(axis=1)
+    gaps = _point_gaps(layout, job, query, origin).min(axis=1)
     missed = np.flatnonzero(gaps > POINT_TOLERANCE)
     if not len(missed):
         return ()
@@ -105,11 +102,22 @@ def _missed_points(
     return (
         Issue(
             "singular-point-missed",
-            f"{len(missed)} of {len(points)} singular_points are not panel vertices: point "
+            f"{len(missed)} of {len(gaps)} singular_points are not panel vertices: point "
             f"{listed} from the nearest vertex; the {layout.method} method does not insert "
             f'them: use [panelize] method = "field" (or "auto")',
         ),
     )
+
+
+def _point_gaps(
+    layout: PanelLayout, job: Job, query: SurfaceQuery, origin: np.ndarray
+) -> np.ndarray:
+    """(p, n) mm: from each of the ``singular_points``' feet on the surface (the points in
+    input units and design coordinates, ``origin`` the surface's) to each layout vertex."""
+    scale = length_scale(job.input.units or "mm")
+    points = np.asarray(job.panelize.singular_points, dtype=float) * scale - origin
+    feet, _, _ = query.closest(points)
+    return np.linalg.norm(feet[:, None] - layout.vertices[None], axis=2)
 
 
 def _first_passing(
@@ -248,10 +256,7 @@ def _singular_vertices(layout: PanelLayout, job: Job, query: SurfaceQuery) -> np
     fixed = np.zeros(len(layout.vertices), dtype=bool)
     if not job.panelize.singular_points:
         return fixed
-    scale = length_scale(job.input.units or "mm")
-    points = np.asarray(job.panelize.singular_points, dtype=float) * scale
-    feet, _, _ = query.closest(points - query.surface.origin)
-    gaps = np.linalg.norm(feet[:, None] - layout.vertices[None], axis=2)
+    gaps = _point_gaps(layout, job, query, query.surface.origin)
     fixed[np.argmin(gaps, axis=1)[gaps.min(axis=1) <= POINT_TOLERANCE]] = True
     return fixed
 
