@@ -231,21 +231,14 @@ def _worth_polishing(layout: PanelLayout, measures: dict, job: Job) -> bool:
 def _polished(layout: PanelLayout, job: Job, query: SurfaceQuery) -> PanelLayout:
     """The layout's vertices nudged into the gates' bands (:mod:`.polish`), with the report in
     ``metrics["polish"]``; singular points stay on their vertex."""
-    from ..buildup import Buildup
     from .polish import PolishLimits, polish_layout
 
-    long, short = Buildup.of(job).usable_plate
-    limits = PolishLimits(
-        size=job.panelize.panel_size,
-        plate=(long, short),
-        min_width=min_panel_width(job),
-    )
     vertices, report = polish_layout(
         layout.vertices,
         layout.quads,
         query,
         DesignBoundary(query.surface),
-        limits,
+        PolishLimits.of(job),
         _singular_vertices(layout, job, query),
     )
     return replace(layout, vertices=vertices, metrics={**layout.metrics, "polish": report})

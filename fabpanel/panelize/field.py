@@ -61,8 +61,10 @@ from .gates import (
     min_panel_width,
 )
 from .lift import FlatMesh, barycentric_weights
+from .polish import PolishLimits, polish_layout
 from .punch import PunchFailed, punched
 from .quality import corner_angles, layout_metrics
+from .rotate import rotate_towards_ideal
 from .slide import BoundaryTrack, SlidingNodes
 from .strip_ops import (
     EditedMesh,
@@ -151,9 +153,10 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     best: _Candidate | None = None
     punched_made = False
     scores: dict[str, float] = {}
-    for way, kept, mesher, punches in _ways_with_small_openings(outline, surface, flat, job):
+    ways = _ways_with_small_openings(outline, surface, flat, job)
+    for way, kept, mesher, punches in ways:
         if best is not None and (
-            meets_every_gate(best.measures, min_width, tips_apart=True)
+            meets_every_gate(best.placed.measures, min_width, tips_apart=True)
             or len(best.placed.mesh.quads) > SECOND_LAYOUT_UP_TO_PANELS
         ):
             break
@@ -171,19 +174,26 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
             longest_edge=min(Buildup.of(job).usable_plate),
         )
         try:
-            placed = _fitted_layout(surface, mesher, domain, job)
+            # strips split or collapsed where it fails the gates on edge lengths
+            placed = _with_strip_edits(
+                surface, domain, job, _fitted_layout(surface, mesher, domain, job)
+            )
         except PunchFailed as failed:
             log.info("small openings not punched: %s", failed)
             continue
         punched_made |= way == "punched"
-        scores[way] = round(layout_score(placed.measures, min_width), 4)
+        # the ways are compared as the stage leaves them, polished: a way ahead before the
+        # polish can be behind after it (another way is made only where the best so far
+        # fails a gate before it, as before the polish was measured here)
+        final = _polished_measures(surface, placed, domain, job) if len(ways) > 1 else None
+        candidate = _Candidate(placed, domain, final)
+        scores[way] = round(layout_score(candidate.measures, min_width), 4)
         if best is None or scores[way] > layout_score(best.measures, min_width):
             placed.info["small_openings"] = way
-            best = _Candidate(placed, domain)
+            best = candidate
             outline = kept
     assert best is not None
-    # the way kept, strips split or collapsed where it fails the gates on edge lengths
-    placed = _with_strip_edits(surface, best.domain, job, best.placed)
+    placed = best.placed
     vertices, quads, info = placed.vertices, placed.mesh.quads, placed.info
     info["small_openings_scores"] = scores  # each way made, by the gates' score
     layout = _layout(vertices, _orient_outwards(vertices, quads, query))
@@ -228,10 +238,32 @@ class _Candidate:
 
     placed: _Placed
     domain: _Domain
+    polished: dict | None = None  # the gates' measures after the polish, where compared
 
     @property
     def measures(self) -> dict:
-        return self.placed.measures
+        return self.placed.measures if self.polished is None else self.polished
+
+
+def _polished_measures(surface: Surface, placed: _Placed, domain: _Domain, job: Job) -> dict:
+    """The gates' measures of a placed layout after the stage's last touch."""
+    vertices = _polished(domain, job, placed.mesh, placed.vertices)
+    return gate_measures(_layout(vertices, placed.mesh.quads), surface, domain.target)
+
+
+def _polished(domain: _Domain, job: Job, mesh: _FlatQuads, vertices: np.ndarray) -> np.ndarray:
+    """The layout's vertices after the stage's last touch (:mod:`.polish`), which
+    :func:`fabpanel.panelize.panelize` gives every field layout: layouts and edits are
+    compared as the stage will leave them."""
+    polished, _ = polish_layout(
+        vertices,
+        mesh.quads,
+        domain.query,
+        domain.boundary,
+        PolishLimits.of(job),
+        _fixed_nodes(domain, mesh.nodes),
+    )
+    return polished
 
 
 def _layout(vertices: np.ndarray, quads: np.ndarray) -> PanelLayout:
@@ -530,15 +562,51 @@ def _on_surface(domain: _Domain, mesh: _FlatQuads, nodes: np.ndarray) -> np.ndar
 def _placed_without_false_corners(
     domain: _Domain, mesh: _FlatQuads, job: Job
 ) -> tuple[_FlatQuads, np.ndarray, dict, bool]:
-    """:func:`_placed_on_plate`; where a corner of the layout on a smooth stretch of the
-    outline stays wider than the gates' 135° after it, that corner dissolved
-    (:mod:`.false_corners`) and the layout placed again, kept if it has fewer corners and
-    edges past the gates' hard limits, or as many and scores better on the gates' measures,
-    and fits the plate as well. Returns the mesh used with the results."""
-    vertices, relaxation, fits = _placed_on_plate(domain, mesh, job)
+    """:func:`_placed_on_plate`, then two edits of the quads, each placed again and kept if
+    it has fewer corners and edges past the gates' hard limits, or as many and scores better
+    on the gates' measures, and fits the plate as well: where a corner of the layout on a
+    smooth stretch of the outline stays wider than the gates' 135°, that corner dissolved
+    (:mod:`.false_corners`); where a vertex has more or fewer panels than its angle can take,
+    edges rotated (:mod:`.rotate`). Returns the mesh used with the results."""
+    placed = _placed_on_plate(domain, mesh, job)
+    mesh, placed = _kept_if_better(domain, job, mesh, placed, _dissolved(domain, mesh, placed[0]))
+    edited = _rotated(domain, mesh, placed[0])
+    mesh, placed = _kept_if_better(domain, job, mesh, placed, edited)
+    return (mesh, *placed)
+
+
+def _kept_if_better(
+    domain: _Domain,
+    job: Job,
+    mesh: _FlatQuads,
+    placed: tuple[np.ndarray, dict, bool],
+    edit: tuple[str, _FlatQuads, dict] | None,
+) -> tuple[_FlatQuads, tuple[np.ndarray, dict, bool]]:
+    """The edited mesh placed, where ``edit`` (its name, the mesh, what was changed) makes
+    it better (:func:`_placed_without_false_corners`), else the mesh as ``placed``."""
+    if edit is None:
+        return mesh, placed
+    name, edited, changes = edit
+    vertices, relaxation, fits = placed
+    again, again_relaxation, again_fits = _placed_on_plate(domain, edited, job)
+    before = band_measures(vertices, mesh.quads, domain.target)
+    after = band_measures(again, edited.quads, domain.target)
+    # fewer corners past the hard limits first: a dissolved corner of 150° is worth a
+    # percent of corners in the band
+    if (after.hard, -after.score) >= (before.hard, -before.score) or (fits and not again_fits):
+        relaxation[name] = {**changes, "kept": False}
+        return mesh, placed
+    again_relaxation = {**relaxation, **again_relaxation, name: {**changes, "kept": True}}
+    return edited, (again, again_relaxation, again_fits)
+
+
+def _dissolved(
+    domain: _Domain, mesh: _FlatQuads, vertices: np.ndarray
+) -> tuple[str, _FlatQuads, dict] | None:
+    """The mesh with its wide false corners dissolved, or None where there are none."""
     wide = _wide_false_corners(domain, mesh, vertices)
     if not len(wide):
-        return mesh, vertices, relaxation, fits
+        return None
     movable = mesh.on_curve & ~_fixed_nodes(domain, mesh.nodes)
     _, on_corner = domain.track.locate(mesh.nodes[movable], CORNER_TOLERANCE * mesh.size)
     movable[np.flatnonzero(movable)[on_corner]] = False
@@ -546,18 +614,25 @@ def _placed_without_false_corners(
         mesh.nodes, mesh.quads, mesh.on_curve, wide, movable
     )
     if not dissolved:
-        return mesh, vertices, relaxation, fits
+        return None
     edited = _FlatQuads(nodes, quads, on_curve, mesh.size)
-    again, again_relaxation, again_fits = _placed_on_plate(domain, edited, job)
-    before = band_measures(vertices, mesh.quads, domain.target)
-    after = band_measures(again, edited.quads, domain.target)
-    # fewer corners past the hard limits first: a dissolved corner of 150° is worth a
-    # percent of corners in the band
-    if (after.hard, -after.score) >= (before.hard, -before.score) or (fits and not again_fits):
-        relaxation["false_corners"] = {"dissolved": dissolved, "kept": False}
-        return mesh, vertices, relaxation, fits
-    again_relaxation["false_corners"] = {"dissolved": dissolved, "kept": True}
-    return edited, again, again_relaxation, again_fits
+    return "false_corners", edited, {"dissolved": dissolved}
+
+
+def _rotated(
+    domain: _Domain, mesh: _FlatQuads, vertices: np.ndarray
+) -> tuple[str, _FlatQuads, dict] | None:
+    """The mesh with edges rotated towards the counts of panels its vertices' angles ask
+    for, or None where the layout passes the gates' bands or nothing was rotated."""
+    if band_measures(vertices, mesh.quads, domain.target).passes:
+        return None
+    angles = corner_angles(vertices[mesh.quads])
+    sums = np.bincount(mesh.quads.ravel(), weights=angles.ravel(), minlength=len(vertices))
+    quads, rotated = rotate_towards_ideal(mesh.quads, mesh.on_curve, sums)
+    if not rotated:
+        return None
+    edited = _FlatQuads(mesh.nodes, quads, mesh.on_curve, mesh.size)
+    return "edge_rotations", edited, {"rotated": rotated}
 
 
 def _wide_false_corners(domain: _Domain, mesh: _FlatQuads, vertices: np.ndarray) -> np.ndarray:

@@ -34,9 +34,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..job import Job
 from ..surface import SurfaceQuery
 from .boundary import DesignBoundary
-from .gates import CORNER_GOOD, CORNER_LIMITS, EDGE_BAND, MIN_EDGE, panel_widths
+from .gates import CORNER_GOOD, CORNER_LIMITS, EDGE_BAND, MIN_EDGE, min_panel_width, panel_widths
 from .quality import corner_angles, panel_extents, vertex_valences
 
 #: distances tried, x the panel size
@@ -72,6 +73,14 @@ class PolishLimits:
     size: float
     plate: tuple[float, float]
     min_width: float
+
+    @classmethod
+    def of(cls, job: Job) -> PolishLimits:
+        """The limits of ``job``: its panel size, plate and narrowest panel."""
+        from ..buildup import Buildup
+
+        long, short = Buildup.of(job).usable_plate
+        return cls(job.panelize.panel_size, (long, short), min_panel_width(job))
 
 
 def polish_layout(
