@@ -13,8 +13,9 @@
    (layout.md §2.3); on a domain without openings whose layout fails a gate, a second mesh
    without QQS's pattern-based faces is made as well and the better layout kept
    (``TOPOLOGIES``);
-3. the quads are mapped back onto the surface through the flattening's triangles, and the
-   boundary vertices are put on the design boundary exactly; where that layout fails a gate,
+3. the quads are smoothed, edited where that helps and mapped back onto the surface through
+   the flattening's triangles (:mod:`.field_place`), and the boundary vertices are put on the
+   design boundary exactly; where that layout fails a gate,
    small openings (about a panel across) are filled in for gmsh and the quad over each
    punched out afterwards (:mod:`.punch`), and the better layout kept;
 4. while a panel does not fit the usable plate, gmsh's next finer meshes at the same size are
@@ -46,12 +47,16 @@ from ..surface import SurfaceQuery
 from ..units import length_scale
 from .boundary import DesignBoundary
 from .corners import OutlineCorners, outline_corners, small_openings
-from .decompose import oversize_panels
 from .densify import Strip, quad_edges
-from .false_corners import dissolve_corners, one_panel_nodes
-from .gate_band import band_measures
+from .field_place import (
+    CORNER_TOLERANCE,
+    Domain,
+    FlatQuads,
+    fixed_nodes,
+    placed_with_edits,
+    polished,
+)
 from .gates import (
-    CORNER_LIMITS,
     EDGE_BAND,
     MIN_BAND_SHARE,
     MIN_EDGE,
@@ -61,11 +66,9 @@ from .gates import (
     min_panel_width,
 )
 from .lift import FlatMesh, barycentric_weights
-from .polish import PolishLimits, polish_layout
 from .punch import PunchFailed, punched
-from .quality import corner_angles, layout_metrics
-from .rotate import rotate_towards_ideal
-from .slide import BoundaryTrack, SlidingNodes
+from .quality import layout_metrics
+from .slide import BoundaryTrack
 from .strip_ops import (
     EditedMesh,
     collapse_strip,
@@ -79,17 +82,6 @@ log = logging.getLogger(__name__)
 #: rounds of smaller panels while some panel does not fit the usable plate, and the factor
 PLATE_ROUNDS = 3
 PLATE_SHRINK = 0.88
-
-#: tries with boundary nodes sliding, each pinning the nodes of panels that left the plate
-SLIDE_ATTEMPTS = 2
-
-#: a boundary node this close to a corner of the outline (x the panel size) is that corner
-CORNER_TOLERANCE = 1e-3
-
-#: outer iterations of the smoothing that holds the gates' bands: it starts from the squared
-#: nodes, unfolded; a second round changed no gate on four test shapes and cost 0.5 s at
-#: a thousand panels
-BAND_OUTER = 1
 
 #: a second layout (small openings punched or squared, another topology step) is made only
 #: beside one of at most this many panels that fails a gate: an opening about a panel across
@@ -162,7 +154,7 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
             break
         if way == "squared" and punched_made:
             continue  # only where no quad could be punched: punched scored as well or better
-        domain = _Domain(
+        domain = Domain(
             flat_mesh=flat_mesh,
             scale=scale,
             points=points,
@@ -237,7 +229,7 @@ class _Candidate:
     """One way of meshing the outline, placed, and the domain it was placed on."""
 
     placed: _Placed
-    domain: _Domain
+    domain: Domain
     polished: dict | None = None  # the gates' measures after the polish, where compared
 
     @property
@@ -245,25 +237,10 @@ class _Candidate:
         return self.placed.measures if self.polished is None else self.polished
 
 
-def _polished_measures(surface: Surface, placed: _Placed, domain: _Domain, job: Job) -> dict:
+def _polished_measures(surface: Surface, placed: _Placed, domain: Domain, job: Job) -> dict:
     """The gates' measures of a placed layout after the stage's last touch."""
-    vertices = _polished(domain, job, placed.mesh, placed.vertices)
+    vertices = polished(domain, job, placed.mesh, placed.vertices)
     return gate_measures(_layout(vertices, placed.mesh.quads), surface, domain.target)
-
-
-def _polished(domain: _Domain, job: Job, mesh: _FlatQuads, vertices: np.ndarray) -> np.ndarray:
-    """The layout's vertices after the stage's last touch (:mod:`.polish`), which
-    :func:`fabpanel.panelize.panelize` gives every field layout: layouts and edits are
-    compared as the stage will leave them."""
-    polished, _ = polish_layout(
-        vertices,
-        mesh.quads,
-        domain.query,
-        domain.boundary,
-        PolishLimits.of(job),
-        _fixed_nodes(domain, mesh.nodes),
-    )
-    return polished
 
 
 def _layout(vertices: np.ndarray, quads: np.ndarray) -> PanelLayout:
@@ -271,7 +248,7 @@ def _layout(vertices: np.ndarray, quads: np.ndarray) -> PanelLayout:
     return PanelLayout(vertices=vertices, quads=quads, panel_ids=ids, method="field")
 
 
-def _fitted_layout(surface: Surface, mesher: OutlineCorners, domain: _Domain, job: Job) -> _Placed:
+def _fitted_layout(surface: Surface, mesher: OutlineCorners, domain: Domain, job: Job) -> _Placed:
     """gmsh's quads of the outline ``mesher`` placed on the surface (the better of two
     topology settings where the first fails, ``TOPOLOGIES``); while a panel misses the plate,
     made again with smaller panels everywhere (module docstring, step 4). A finer mesh of
@@ -307,7 +284,7 @@ def _fitted_layout(surface: Surface, mesher: OutlineCorners, domain: _Domain, jo
 def _round_of_layouts(
     surface: Surface,
     mesher: OutlineCorners,
-    domain: _Domain,
+    domain: Domain,
     job: Job,
     size: float,
     min_width: float,
@@ -347,14 +324,14 @@ class _Placed:
     """One of gmsh's meshes placed on the surface, measured by the gates."""
 
     vertices: np.ndarray
-    mesh: _FlatQuads
+    mesh: FlatQuads
     info: dict
     fits: bool
     measures: dict
 
 
 def _placed_mesh(
-    surface: Surface, mesher: OutlineCorners, domain: _Domain, job: Job, size: float, topology: int
+    surface: Surface, mesher: OutlineCorners, domain: Domain, job: Job, size: float, topology: int
 ) -> _Placed:
     """gmsh's quads at panel ``size`` with QQS's ``topology`` steps, placed on the surface;
     where a panel misses the plate, gmsh's next finer meshes at the same size are placed in
@@ -381,21 +358,21 @@ def _placed_mesh(
     return first
 
 
-def _placed(surface: Surface, domain: _Domain, job: Job, meshed: _Meshed) -> _Placed:
+def _placed(surface: Surface, domain: Domain, job: Job, meshed: _Meshed) -> _Placed:
     """One of gmsh's meshes punched (small openings) and placed on the surface."""
     nodes, quads, on_curve = meshed.nodes, meshed.quads, meshed.on_curve
     if domain.punches:
         nodes, quads, on_curve = punched(
-            nodes, quads, on_curve, domain.punches, _fixed_nodes(domain, nodes)
+            nodes, quads, on_curve, domain.punches, fixed_nodes(domain, nodes)
         )
-    mesh = _FlatQuads(nodes, quads, on_curve, meshed.size)
+    mesh = FlatQuads(nodes, quads, on_curve, meshed.size)
     info = dict(meshed.info)
-    mesh, vertices, info["relaxation"], fits = _placed_without_false_corners(domain, mesh, job)
+    mesh, vertices, info["relaxation"], fits = placed_with_edits(domain, mesh, job)
     measures = gate_measures(_layout(vertices, mesh.quads), surface, domain.target)
     return _Placed(vertices, mesh, info, fits, measures)
 
 
-def _with_strip_edits(surface: Surface, domain: _Domain, job: Job, placed: _Placed) -> _Placed:
+def _with_strip_edits(surface: Surface, domain: Domain, job: Job, placed: _Placed) -> _Placed:
     """Where a layout of at most ``SECOND_LAYOUT_UP_TO_PANELS`` fails the edge band or the
     shortest edge, strips split or collapsed (:mod:`.strip_ops`) and the layout placed again,
     an edit kept where every panel still fits (if it did) and the gates' score rises; up to
@@ -411,8 +388,8 @@ def _with_strip_edits(surface: Surface, domain: _Domain, job: Job, placed: _Plac
     for _ in range(STRIP_ROUNDS):
         better = None
         for kind, edited in _strip_edits(domain, best, report):
-            mesh = _FlatQuads(edited.nodes, edited.quads, edited.on_curve, best.mesh.size)
-            mesh, vertices, relaxation, fits = _placed_without_false_corners(domain, mesh, job)
+            mesh = FlatQuads(edited.nodes, edited.quads, edited.on_curve, best.mesh.size)
+            mesh, vertices, relaxation, fits = placed_with_edits(domain, mesh, job)
             measures = gate_measures(_layout(vertices, mesh.quads), surface, target)
             if (fits or not best.fits) and layout_score(measures, min_width) > layout_score(
                 best.measures, min_width
@@ -442,7 +419,7 @@ def _edges_pass(measures: dict) -> bool:
     )
 
 
-def _strip_edits(domain: _Domain, placed: _Placed, report: dict):
+def _strip_edits(domain: Domain, placed: _Placed, report: dict):
     """The meshes of :func:`_with_strip_edits`'s round, made one by one as the caller asks:
     ``(kind, EditedMesh)`` with ``kind`` "split" or "collapsed"; refused collapses counted in
     ``report``. The kind with more edges out of the band on its side comes first."""
@@ -451,7 +428,7 @@ def _strip_edits(domain: _Domain, placed: _Placed, report: dict):
     lengths = np.linalg.norm(placed.vertices[edges[:, 0]] - placed.vertices[edges[:, 1]], axis=1)
     splits = strips_to_split(mesh.quads, lengths, target, EDGE_BAND)[:STRIP_TRIES]
     collapses = strips_to_collapse(mesh.quads, lengths, target, EDGE_BAND)[:STRIP_TRIES]
-    fixed = _fixed_nodes(domain, mesh.nodes)
+    fixed = fixed_nodes(domain, mesh.nodes)
     t, on_corner = track.locate(mesh.nodes[mesh.on_curve], CORNER_TOLERANCE * mesh.size)
     fixed[np.flatnonzero(mesh.on_curve)[on_corner]] = True
     loop = np.full(len(mesh.nodes), -1)
@@ -486,265 +463,6 @@ class _Meshed:
     on_curve: np.ndarray
     size: float
     info: dict
-
-
-@dataclass(frozen=True)
-class _Domain:
-    """The flattened design surface and what placing quads on it needs, made once."""
-
-    flat_mesh: FlatMesh
-    scale: np.ndarray
-    points: np.ndarray  # the singular points, flat
-    track: BoundaryTrack
-    boundary: DesignBoundary
-    query: SurfaceQuery
-    target: float  # the asked panel size, mm, which the gates measure against
-    punches: tuple[np.ndarray, ...] = ()  # small openings punched out of the mesh (:mod:`.punch`)
-    longest_edge: float = np.inf  # mm: the plate's usable width, which the band smoothing holds
-
-
-@dataclass(frozen=True)
-class _FlatQuads:
-    """gmsh's quads of the flat domain, with the panel size they were made for."""
-
-    nodes: np.ndarray
-    quads: np.ndarray
-    on_curve: np.ndarray
-    size: float
-
-
-def _place(
-    domain: _Domain, mesh: _FlatQuads, slide: bool, job: Job, pinned: np.ndarray
-) -> tuple[np.ndarray, dict]:
-    """The quads' nodes smoothed in the flat domain (boundary nodes sliding along the
-    boundary, except ``pinned`` ones, if ``slide``) and put on the surface; boundary nodes
-    exactly on the design boundary.
-
-    The smoothing squares the panels. Where that fails a gate on corners or edges or a panel
-    misses the plate, a second one from there also holds corners and edges in the gates' bands
-    (:mod:`.gate_band`); it is kept where every panel fits and it scores better on the gates'
-    own measures; otherwise, where the first missed the plate, the caller pins nodes or makes
-    the layout again, smaller (where the flattening's scale changes fast, on a trumpet, the two
-    pull against each other and the first is better). A layout that passes is left as it is:
-    the second smoothing costs a second at a thousand panels, and trades the smallest corner
-    for the share in the band."""
-    relaxed, relaxation = _relax(domain, mesh, slide, pinned, mesh.nodes, band=False)
-    vertices = _on_surface(domain, mesh, relaxed)
-    before = band_measures(vertices, mesh.quads, domain.target)
-    missed = bool(oversize_panels(vertices, mesh.quads, job).any())
-    if before.passes and not missed:
-        return vertices, relaxation
-    # the bands also hold every edge under 1.25 x panel_size (and the plate's usable width),
-    # which often brings a squared boundary panel that misses the plate back onto it (else
-    # the caller pins or shrinks)
-    banded, band_relaxation = _relax(domain, mesh, slide, pinned, relaxed, band=True)
-    in_band = _on_surface(domain, mesh, banded)
-    after = band_measures(in_band, mesh.quads, domain.target)
-    fits = not oversize_panels(in_band, mesh.quads, job).any()
-    better = fits and after.score > before.score
-    relaxation["gate_band"] = {
-        "score_before": round(before.score, 4),
-        "score_after": round(after.score, 4),
-        "kept": bool(better),
-        "outer_iterations": band_relaxation["outer_iterations"],
-    }
-    return (in_band if better else vertices), relaxation
-
-
-def _on_surface(domain: _Domain, mesh: _FlatQuads, nodes: np.ndarray) -> np.ndarray:
-    """Flat nodes mapped onto the surface, boundary nodes exactly onto the design boundary."""
-    vertices = domain.flat_mesh.interpolate(nodes)
-    vertices[mesh.on_curve] = domain.boundary.closest(vertices[mesh.on_curve])
-    vertices[~mesh.on_curve], _, _ = domain.query.closest(vertices[~mesh.on_curve])
-    return vertices
-
-
-def _placed_without_false_corners(
-    domain: _Domain, mesh: _FlatQuads, job: Job
-) -> tuple[_FlatQuads, np.ndarray, dict, bool]:
-    """:func:`_placed_on_plate`, then two edits of the quads, each placed again and kept if
-    it has fewer corners and edges past the gates' hard limits, or as many and scores better
-    on the gates' measures, and fits the plate as well: where a corner of the layout on a
-    smooth stretch of the outline stays wider than the gates' 135°, that corner dissolved
-    (:mod:`.false_corners`); where a vertex has more or fewer panels than its angle can take,
-    edges rotated (:mod:`.rotate`). Returns the mesh used with the results."""
-    placed = _placed_on_plate(domain, mesh, job)
-    mesh, placed = _kept_if_better(domain, job, mesh, placed, _dissolved(domain, mesh, placed[0]))
-    edited = _rotated(domain, mesh, placed[0])
-    mesh, placed = _kept_if_better(domain, job, mesh, placed, edited)
-    return (mesh, *placed)
-
-
-def _kept_if_better(
-    domain: _Domain,
-    job: Job,
-    mesh: _FlatQuads,
-    placed: tuple[np.ndarray, dict, bool],
-    edit: tuple[str, _FlatQuads, dict] | None,
-) -> tuple[_FlatQuads, tuple[np.ndarray, dict, bool]]:
-    """The edited mesh placed, where ``edit`` (its name, the mesh, what was changed) makes
-    it better (:func:`_placed_without_false_corners`), else the mesh as ``placed``."""
-    if edit is None:
-        return mesh, placed
-    name, edited, changes = edit
-    vertices, relaxation, fits = placed
-    again, again_relaxation, again_fits = _placed_on_plate(domain, edited, job)
-    before = band_measures(vertices, mesh.quads, domain.target)
-    after = band_measures(again, edited.quads, domain.target)
-    # fewer corners past the hard limits first: a dissolved corner of 150° is worth a
-    # percent of corners in the band
-    if (after.hard, -after.score) >= (before.hard, -before.score) or (fits and not again_fits):
-        relaxation[name] = {**changes, "kept": False}
-        return mesh, placed
-    again_relaxation = {**relaxation, **again_relaxation, name: {**changes, "kept": True}}
-    return edited, (again, again_relaxation, again_fits)
-
-
-def _dissolved(
-    domain: _Domain, mesh: _FlatQuads, vertices: np.ndarray
-) -> tuple[str, _FlatQuads, dict] | None:
-    """The mesh with its wide false corners dissolved, or None where there are none."""
-    wide = _wide_false_corners(domain, mesh, vertices)
-    if not len(wide):
-        return None
-    movable = mesh.on_curve & ~_fixed_nodes(domain, mesh.nodes)
-    _, on_corner = domain.track.locate(mesh.nodes[movable], CORNER_TOLERANCE * mesh.size)
-    movable[np.flatnonzero(movable)[on_corner]] = False
-    nodes, quads, on_curve, dissolved = dissolve_corners(
-        mesh.nodes, mesh.quads, mesh.on_curve, wide, movable
-    )
-    if not dissolved:
-        return None
-    edited = _FlatQuads(nodes, quads, on_curve, mesh.size)
-    return "false_corners", edited, {"dissolved": dissolved}
-
-
-def _rotated(
-    domain: _Domain, mesh: _FlatQuads, vertices: np.ndarray
-) -> tuple[str, _FlatQuads, dict] | None:
-    """The mesh with edges rotated towards the counts of panels its vertices' angles ask
-    for, or None where the layout passes the gates' bands or nothing was rotated."""
-    if band_measures(vertices, mesh.quads, domain.target).passes:
-        return None
-    angles = corner_angles(vertices[mesh.quads])
-    sums = np.bincount(mesh.quads.ravel(), weights=angles.ravel(), minlength=len(vertices))
-    quads, rotated = rotate_towards_ideal(mesh.quads, mesh.on_curve, sums)
-    if not rotated:
-        return None
-    edited = _FlatQuads(mesh.nodes, quads, mesh.on_curve, mesh.size)
-    return "edge_rotations", edited, {"rotated": rotated}
-
-
-def _wide_false_corners(domain: _Domain, mesh: _FlatQuads, vertices: np.ndarray) -> np.ndarray:
-    """Ids of the layout's corners (boundary nodes of one panel) whose angle on the surface
-    is over the gates' hard limit and that are not corners of the outline."""
-    corners = one_panel_nodes(mesh.quads, mesh.on_curve)
-    if not len(corners):
-        return corners
-    _, on_corner = domain.track.locate(mesh.nodes[corners], CORNER_TOLERANCE * mesh.size)
-    corners = corners[~on_corner]
-    quad, at = np.nonzero(mesh.quads[:, :, None] == corners[None, None, :])[:2]
-    angle = corner_angles(vertices[mesh.quads[quad]])[np.arange(len(quad)), at]
-    return mesh.quads[quad, at][angle > CORNER_LIMITS[1]]
-
-
-def _fixed_nodes(domain: _Domain, nodes: np.ndarray) -> np.ndarray:
-    """(n,) bool: the nodes nearest the singular points, which stay where they were asked."""
-    fixed = np.zeros(len(nodes), dtype=bool)
-    for point in domain.points:
-        fixed[int(np.argmin(np.linalg.norm(nodes - point, axis=1)))] = True
-    return fixed
-
-
-def _placed_on_plate(domain: _Domain, mesh: _FlatQuads, job: Job) -> tuple[np.ndarray, dict, bool]:
-    """The layout's vertices, the smoothing's report and whether every panel fits the plate.
-
-    Boundary nodes sliding square leaning boundary panels, but can lengthen a boundary side:
-    the nodes of a panel that no longer fits the plate are pinned where gmsh put them and the
-    smoothing is run again; if that does not fit either, no boundary node slides. Where an
-    interior panel misses the plate, only smaller panels help (the caller's next round)."""
-    pinned = np.zeros(len(mesh.nodes), dtype=bool)
-    for attempt in range(SLIDE_ATTEMPTS + 1):
-        slide = attempt < SLIDE_ATTEMPTS
-        vertices, relaxation = _place(domain, mesh, slide, job, pinned)
-        oversize = oversize_panels(vertices, mesh.quads, job)
-        boundary_panel = mesh.on_curve[mesh.quads].any(axis=1)
-        if not oversize.any() or (oversize & ~boundary_panel).any():
-            break  # fits, or an interior panel misses the plate: sliding did not cause that
-        pinned[mesh.quads[oversize].ravel()] = True
-    return vertices, {**relaxation, "sliding": slide}, not oversize.any()
-
-
-def _relax(
-    domain: _Domain,
-    mesh: _FlatQuads,
-    slide: bool,
-    pinned: np.ndarray,
-    nodes: np.ndarray,
-    band: bool,
-) -> tuple[np.ndarray, dict]:
-    """Nodes moved to right-angled panels of the asked size (fold-free smoothing,
-    :mod:`.untangle`, with each quad's reference size the panel size times the flattening's
-    scale there); boundary nodes slide along the boundary (:mod:`.slide`), corners of the
-    outline and the singular points stay. gmsh's own cavity remeshing would do similar work
-    but runs against a time budget, so its result changes from run to run; this does not."""
-    from .gate_band import gate_band
-    from .untangle import MAX_OUTER, corner_determinants, untangle
-
-    quads, on_curve, size = mesh.quads, mesh.on_curve, mesh.size
-    flat_mesh, track = domain.flat_mesh, domain.track if slide else None
-    if corner_determinants(nodes, quads).sum() < 0:
-        quads = quads[:, [0, 3, 2, 1]]  # counter-clockwise in the flat domain
-    centres = nodes[quads].mean(axis=1)
-    local = _interpolate_scale(flat_mesh, domain.scale, centres)
-    fixed = _fixed_nodes(domain, nodes)
-    sliding = None
-    if track is not None:
-        candidates = np.flatnonzero(on_curve & ~fixed & ~pinned)
-        edges, quad_of_edge = _boundary_edges(quads)
-        sliding = SlidingNodes.on_track(
-            track, nodes, candidates, CORNER_TOLERANCE * size, edges, size * local[quad_of_edge]
-        )
-    relaxed, info = untangle(
-        nodes,
-        quads,
-        ~on_curve & ~fixed,
-        reference=size * local,
-        sliding=sliding,
-        band=gate_band(
-            nodes,
-            flat_mesh.interpolate(nodes),
-            quads,
-            np.repeat(size * local, 4),
-            domain.target,
-            sliding=None if sliding is None else sliding.ids,
-            longest=domain.longest_edge,
-        )
-        if band
-        else None,
-        max_outer=BAND_OUTER if band else MAX_OUTER,
-    )
-    if info["folded_after"] > info["folded_before"]:
-        return nodes, {**info, "kept": "gmsh"}
-    return relaxed, info
-
-
-def _boundary_edges(quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The quad sides used by one quad only, (k, 2) node ids, and the quad of each."""
-    sides = np.stack([quads, np.roll(quads, -1, axis=1)], axis=2).reshape(-1, 2)
-    _, index, counts = np.unique(
-        np.sort(sides, axis=1), axis=0, return_index=True, return_counts=True
-    )
-    once = index[counts == 1]
-    return sides[once], once // 4
-
-
-def _interpolate_scale(flat_mesh: FlatMesh, scale: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """The flattening's scale at flat points (barycentric in the nearest flat triangle)."""
-    p = np.column_stack([points, np.zeros(len(points))])
-    foot, _, tri = flat_mesh.locator.nearest(p)
-    weights = barycentric_weights(foot[:, :2], flat_mesh.flat[flat_mesh.faces[tri]])
-    return np.einsum("pk,pk->p", weights, scale[flat_mesh.faces[tri]])
 
 
 def _singular_points(
