@@ -209,9 +209,7 @@ def _run_stages(
         progress, "panelize", None, lambda: panelize(surface, job, query), issues
     )
     issues += layout.issues
-    progress.finish(
-        "panelize", timings["panelize"], f"{len(layout.quads)} panels ({layout.method})"
-    )
+    progress.finish("panelize", timings["panelize"], _layout_verdict(layout))
     state["layout"] = layout
     ran: list[Stage] = ["panelize"]
 
@@ -320,3 +318,14 @@ def _run_stages(
         for issue in warning_issues("write", caught):
             log.info("%s", issue.message)
     return result
+
+
+def _layout_verdict(layout: PanelLayout) -> str:
+    """The panelize stage's progress line: panels, method and the layout gates' verdict."""
+    gates = layout.metrics.get("gates", {})
+    head = f"{len(layout.quads)} panels ({layout.method})"
+    if "passed" not in gates:
+        return head
+    if gates["passed"]:
+        return f"{head}, every layout gate passed"
+    return f"{head}, layout gates failed: {', '.join(gates['failed'])}"

@@ -28,6 +28,7 @@ from fabpanel.panelize.gates import (
     panel_widths,
 )
 from fabpanel.panelize.quality import corner_angles
+from fabpanel.pipeline import _layout_verdict
 from fabpanel.surface import SurfaceQuery
 
 
@@ -132,6 +133,9 @@ def test_the_field_layout_meets_the_gates_on_a_dish_with_an_opening(dish):
     assert gates["shortest_edge_vs_panel_size"] >= 0.3
     assert gates["corners_in_60_120"] >= 0.95
     assert not [i for i in layout.issues if i.severity == "error"]
+    # the verdict beside the figures, and on the progress line
+    assert gates["passed"] and gates["failed"] == []
+    assert _layout_verdict(layout).endswith("panels (field), every layout gate passed")
 
 
 def test_field_boundary_vertices_lie_on_the_design_outline(dish):
@@ -196,6 +200,9 @@ def test_auto_compares_both_methods_when_the_field_layout_fails_a_gate(tmp_path)
     assert auto["scores"]["field"] == max(auto["scores"].values())
     assert "layout-corner-angle" in auto["gates_failed"]["field"]
     assert "field scores" in auto["reason"]
+    gates = layout.metrics["gates"]
+    assert not gates["passed"] and gates["failed"] == auto["gates_failed"]["field"]
+    assert f"layout gates failed: {', '.join(gates['failed'])}" in _layout_verdict(layout)
 
 
 def test_a_singular_point_becomes_a_vertex_with_the_field_method():

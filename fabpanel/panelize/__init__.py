@@ -207,10 +207,14 @@ def _gated(layout: PanelLayout, surface: Surface, job: Job, query: SurfaceQuery)
         layout = _polished(layout, job, query)
         measures = gate_measures(layout, surface, job.panelize.panel_size)
     measures["score"] = layout_score(measures, min_panel_width(job))
+    found = gate_issues(layout, measures, job)
+    # the verdict beside the figures: the gates failed, by their issue's code
+    measures["failed"] = sorted({issue.code for issue in found})
+    measures["passed"] = not measures["failed"]
     return replace(
         layout,
         metrics={**layout.metrics, "gates": measures},
-        issues=tuple(layout.issues) + gate_issues(layout, measures, job),
+        issues=tuple(layout.issues) + found,
     )
 
 

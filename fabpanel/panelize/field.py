@@ -46,7 +46,7 @@ from ..job import Job
 from ..surface import SurfaceQuery
 from ..units import length_scale
 from .boundary import DesignBoundary
-from .corners import OutlineCorners, outline_corners, small_openings
+from .corners import ROUNDING_TURN, OutlineCorners, outline_corners, small_openings
 from .densify import Strip, quad_edges
 from .field_place import (
     CORNER_TOLERANCE,
@@ -485,19 +485,21 @@ def _cut_corner_issues(surface: Surface, outline: OutlineCorners) -> tuple[Issue
     if not len(outline.cut_corners):
         return ()
     at = surface.vertices[outline.cut_corners] + surface.origin
+    tight = 1.0 / np.radians(ROUNDING_TURN)  # the radius that turns ROUNDING_TURN per panel
     where = ", ".join(f"({x:.0f}, {y:.0f}, {z:.0f})" for x, y, z in at[:4])
     more = f" and {len(at) - 4} more" if len(at) > 4 else ""
     return (
         Issue(
             "outline-cut-corner",
             f"{len(at)} corner(s) of the outline turn through short facets or a tight "
-            f"rounding (within 0.6 x panel_size), at {where}{more} mm; each is taken as one "
+            f"rounding (more than {ROUNDING_TURN:.0f}° within one panel_size of arc, a radius "
+            f"under about {tight:.2f} x panel_size), at {where}{more} mm; each is taken as one "
             f"sharp corner of the layout, so the sheets do not follow the facets or the "
             f"rounding exactly (boundary_deviation_mm, after the develop stage, shows by how "
             f"much); if the corner is meant sharp, give the mesh a vertex at it; a rounding "
             f"this tight cannot be followed by the corner of a panel, whose two sides meet in "
-            f"its two rib planes: round it at 0.6 x panel_size or more, or trim the corner "
-            f"after",
+            f"its two rib planes: give it a radius of a panel_size or more (the panels then "
+            f"follow it), or trim the corner after",
         ),
     )
 
