@@ -542,3 +542,16 @@ def test_a_sharp_panel_corner_on_a_straight_outline_is_the_layouts():
     assert measures["outline_tip_corners"] == []
     codes = {i.code for i in gate_issues(layout, measures, _job())}
     assert "layout-corner-angle" in codes and "outline-sharp-corner" not in codes
+
+
+def test_a_finer_mesh_of_gmsh_is_kept_where_the_first_fails_a_gate(tmp_path):
+    # random seed 57 of benchmarks/random_shapes.py: gmsh's first mesh of the punched way
+    # leaves its rotated rectangular opening two corners of two panels (147°, 95 % of corners
+    # in 60-120°); the next finer one has three panels at every corner and passes every gate
+    layout = fp.panelize(random_surface(57, tmp_path), _job("1 m", method="field"))
+    assert layout.metrics["field"]["finer_mesh_for_gates"] >= 1
+    gates = layout.metrics["gates"]
+    assert gates["passed"], gates["failed"]
+    assert gates["corners_in_45_135"] == 1.0 and gates["corners_in_60_120"] >= 0.95
+    assert gates["count_ratio"] <= 1.3
+    assert gates["euler_characteristic"] == gates["surface_euler_characteristic"]
