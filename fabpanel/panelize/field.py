@@ -335,13 +335,7 @@ def _better_of_finer(
     if meets_every_gate(first.measures, min_width, tips_apart=True):
         return first
     best, best_key = first, layout_score(first.measures, min_width)
-    for tried, finer in enumerate(meshes[1 : 1 + FINER_FOR_GATES], start=1):
-        if len(finer.quads) > FINER_AT_MOST * len(meshes[0].quads):
-            break
-        try:
-            placed = _placed(surface, domain, job, finer)
-        except PunchFailed:
-            continue
+    for tried, placed in _finer_placed(surface, domain, job, meshes[: 1 + FINER_FOR_GATES]):
         key = layout_score(placed.measures, min_width)
         if placed.fits and key > best_key:
             placed.info["finer_mesh_for_gates"] = tried
@@ -377,17 +371,24 @@ def _placed_mesh(
         return first
     if first.fits:
         return _better_of_finer(surface, domain, job, meshes, first)
-    for tried, finer in enumerate(meshes[1:], start=1):
-        if len(finer.quads) > FINER_AT_MOST * len(meshes[0].quads):
-            break
-        try:
-            placed = _placed(surface, domain, job, finer)
-        except PunchFailed:
-            continue
+    for tried, placed in _finer_placed(surface, domain, job, meshes):
         if placed.fits:
             placed.info["finer_mesh"] = tried
             return placed
     return first
+
+
+def _finer_placed(surface: Surface, domain: Domain, job: Job, meshes: list[_Meshed]):
+    """``(k, placed)`` for gmsh's finer meshes ``meshes[1:]`` in turn, placed as the caller
+    asks, up to ``FINER_AT_MOST`` x the first's quads; one that cannot be punched is passed
+    over."""
+    for tried, finer in enumerate(meshes[1:], start=1):
+        if len(finer.quads) > FINER_AT_MOST * len(meshes[0].quads):
+            return
+        try:
+            yield tried, _placed(surface, domain, job, finer)
+        except PunchFailed:
+            continue
 
 
 def _placed(surface: Surface, domain: Domain, job: Job, meshed: _Meshed) -> _Placed:
