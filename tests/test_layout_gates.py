@@ -21,6 +21,7 @@ from fabpanel.develop.project import sample_panels
 from fabpanel.geom.conformal import conformal_flattening
 from fabpanel.panelize.boundary import DesignBoundary, boundary_deviation, smooth_loop
 from fabpanel.panelize.gates import (
+    failed_gates,
     gate_issues,
     gate_measures,
     layout_score,
@@ -509,6 +510,8 @@ def test_a_tip_sharper_than_45_degrees_is_named_as_the_designs():
     # the 30° corner is not listed again among the layout's own bad corners
     corner = issues.get("layout-corner-angle")
     assert corner is None or "P001" not in corner.message
+    # nor is the tip a failed layout gate in the verdict
+    assert "outline-sharp-corner" not in failed_gates(issues.values())
 
 
 def test_the_designs_tips_can_be_set_apart_when_asking_whether_every_gate_is_met():

@@ -35,7 +35,14 @@ from ..surface import SurfaceQuery
 from ..units import length_scale
 from .boundary import DesignBoundary
 from .estimate import check_panel_count
-from .gates import gate_issues, gate_measures, layout_score, meets_every_gate, min_panel_width
+from .gates import (
+    failed_gates,
+    gate_issues,
+    gate_measures,
+    layout_score,
+    meets_every_gate,
+    min_panel_width,
+)
 from .grid import grid_panelize, is_four_sided
 from .quality import vertex_valences
 
@@ -173,7 +180,7 @@ def _worth_a_skeleton(first: PanelLayout, methods: tuple[str, str]) -> bool:
 
 
 def _failed_gates(layout: PanelLayout) -> list[str]:
-    return sorted({i.code for i in layout.issues if i.code.startswith("layout-")})
+    return failed_gates(layout.issues)
 
 
 def _fails_a_gate(layout: PanelLayout) -> bool:
@@ -209,7 +216,7 @@ def _gated(layout: PanelLayout, surface: Surface, job: Job, query: SurfaceQuery)
     measures["score"] = layout_score(measures, min_panel_width(job))
     found = gate_issues(layout, measures, job)
     # the verdict beside the figures: the gates failed, by their issue's code
-    measures["failed"] = sorted({issue.code for issue in found})
+    measures["failed"] = failed_gates(found)
     measures["passed"] = not measures["failed"]
     return replace(
         layout,

@@ -216,6 +216,12 @@ def _names(layout: PanelLayout, panels: np.ndarray) -> str:
     return ", ".join(ids) + more
 
 
+def failed_gates(issues) -> list[str]:
+    """The layout gates that ``issues`` say failed, by code: the ``layout-...`` ones (a design
+    tip's ``outline-sharp-corner`` is the design's, not the layout's)."""
+    return sorted({issue.code for issue in issues if issue.code.startswith("layout-")})
+
+
 def gate_issues(layout: PanelLayout, measures: dict, job: Job) -> tuple[Issue, ...]:
     """Issues for every gate the layout fails, naming the panels and the likely fix."""
     target = job.panelize.panel_size
