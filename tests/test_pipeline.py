@@ -70,8 +70,13 @@ def test_output_contract(vault_run):
     assert manifest["units"]["length"] == "mm"
     assert len(manifest["panels"]) == GRID_U * GRID_V
     # the layout gates in the summary too, where a user looks first
-    gates = json.loads((out / "report" / "summary.json").read_text())["panels"]["gates"]
+    panels = json.loads((out / "report" / "summary.json").read_text())["panels"]
+    gates = panels["gates"]
     assert gates["panels"] == GRID_U * GRID_V and gates["manifold"]
+    # the verdict, and why the layout has its method, beside the figures
+    assert gates["passed"] is (gates["failed"] == [])
+    assert all(code.startswith("layout-") for code in gates["failed"])
+    assert panels["chosen_because"] and panels["method"] in panels["chosen_because"]
     assert 0 < gates["count_ratio"] and "edges_in_band" in gates and "corners_in_60_120" in gates
     assert len(manifest["parts"]) == 10 * GRID_U * GRID_V
     # assembly.step holds every panel: a STEP per panel only when asked (step_per_panel)

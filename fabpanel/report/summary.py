@@ -30,7 +30,7 @@ def summarise(result, timings: dict[str, float], structure: dict) -> dict:
             # the layout gates' measures (count, edge band and histogram, shortest edge,
             # narrowest panel, corners, topology, score) and why ``auto`` chose the method
             "gates": m.get("gates"),
-            "chosen_because": m.get("auto", {}).get("reason"),
+            "chosen_because": _chosen_because(result),
         }
     if result.developed is not None:
         m = result.developed.metrics
@@ -72,3 +72,14 @@ def summarise(result, timings: dict[str, float], structure: dict) -> dict:
         }
         summary["nests"]["plates"] = len(result.nests.plates)
     return summary
+
+
+def _chosen_because(result) -> str:
+    """Why the layout has its method: ``auto``'s reason, or the job's own asking."""
+    reason = result.layout.metrics.get("auto", {}).get("reason")
+    if reason:
+        return reason
+    asked = result.job.panelize.method
+    if asked == "auto":  # a four-sided outline with grid counts given: the grid, as asked
+        return "auto on a four-sided outline with grid_u or grid_v given: the grid"
+    return f'asked in the job ([panelize] method = "{asked}")'
