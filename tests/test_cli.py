@@ -162,3 +162,24 @@ def test_an_issue_line_names_its_item_once():
     assert issue_line(named) == "  issue: P001-RIB-0 bolt 0: shear 1.2"
     bare = Issue("panel-not-built", "not built: OCCT failed", "P002", "error")
     assert issue_line(bare) == "  issue: P002: not built: OCCT failed"
+
+
+def test_help_and_the_job_load_no_kernel_and_the_stage_names_stay_functions():
+    # `fabpanel --help` and `fp.Job` need neither OCCT nor gmsh (their imports took 3-6 s of
+    # every --help); the stage functions load on first use, and `fp.panelize` and
+    # `fp.develop` stay the functions when their packages are imported by other modules
+    script = (
+        "import sys, fabpanel as fp, fabpanel.cli\n"
+        "heavy = {'OCP', 'build123d', 'gmsh', 'ezdxf', 'trimesh'} & set(sys.modules)\n"
+        "assert not heavy, heavy\n"
+        "import fabpanel.pipeline\n"
+        "assert fp.panelize.__module__ == 'fabpanel.panelize', fp.panelize\n"
+        "from fabpanel import develop, run, Model\n"
+        "assert not isinstance(develop, type(sys)) and not isinstance(fp.panelize, type(sys))\n"
+        "assert run is fp.run and Model.__name__ == 'Model'\n"
+        "try:\n    fp.no_such_name\nexcept AttributeError:\n    pass\nelse:\n    raise SystemExit(1)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], check=False, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
