@@ -378,17 +378,20 @@ def test_panels_near_the_plate_width_are_brought_onto_it_without_a_smaller_size(
     # size is wider than the plate. A random polygon (seed 19 of benchmarks/random_shapes.py,
     # 105 panels at 1 m): gmsh's chosen mesh misses the plate, and a plate round
     # (12 % smaller everywhere) would add a third more panels; gmsh's next finer mesh at the
-    # asked size fits, placed with the band smoothing holding edges under the plate's width
+    # asked size fits, placed with the band smoothing holding edges under the plate's width.
+    # (With the band measure's edge rotations the first mesh fits the plate but fails a gate:
+    # the same next finer mesh is then taken for the gates, step 8 of the README.)
     from fabpanel.panelize.decompose import oversize_panels
 
     surface = random_surface(19, tmp_path)
     job = _job("1.2 m", method="field")
     layout = fp.panelize(surface, job)
     field = layout.metrics["field"]
-    assert field["finer_mesh"] == 1
+    assert field.get("finer_mesh", 0) + field.get("finer_mesh_for_gates", 0) == 1
     assert field["plate_rounds"] == 0 and field["size_used_mm"] == 1200.0
     assert not oversize_panels(layout.vertices, layout.quads, job).any()
-    assert layout.metrics["gates"]["count_ratio"] <= 1.3  # measured 1.11 (77 panels)
+    assert layout.metrics["gates"]["count_ratio"] <= 1.3  # measured 1.29 (90 panels)
+    assert layout.metrics["gates"]["failed"] == []
 
 
 def test_a_small_opening_is_a_missing_panel_at_1_2_m_too(tmp_path):

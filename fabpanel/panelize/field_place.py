@@ -26,7 +26,7 @@ from .gates import CORNER_LIMITS
 from .lift import FlatMesh, barycentric_weights
 from .polish import PolishLimits, polish_layout
 from .quality import corner_angles
-from .rotate import rotate_towards_ideal
+from .rotate import MEASURES, rotate_towards_ideal
 from .slide import BoundaryTrack, SlidingNodes
 
 #: tries with boundary nodes sliding, each pinning the nodes of panels that left the plate
@@ -138,8 +138,9 @@ def placed_with_edits(
     edges rotated (:mod:`.rotate`). Returns the mesh used with the results."""
     placed = _placed_on_plate(domain, mesh, job)
     mesh, placed = _kept_if_better(domain, job, mesh, placed, _dissolved(domain, mesh, placed[0]))
-    edited = _rotated(domain, mesh, placed[0])
-    mesh, placed = _kept_if_better(domain, job, mesh, placed, edited)
+    for measure in MEASURES:
+        edited = _rotated(domain, mesh, placed[0], measure)
+        mesh, placed = _kept_if_better(domain, job, mesh, placed, edited)
     return (mesh, *placed)
 
 
@@ -188,19 +189,21 @@ def _dissolved(
 
 
 def _rotated(
-    domain: Domain, mesh: FlatQuads, vertices: np.ndarray
+    domain: Domain, mesh: FlatQuads, vertices: np.ndarray, measure: str
 ) -> tuple[str, FlatQuads, dict] | None:
     """The mesh with edges rotated towards the counts of panels its vertices' angles ask
-    for, or None where the layout passes the gates' bands or nothing was rotated."""
+    for, by ``measure`` (:func:`.rotate._gain`), or None where the layout passes the gates'
+    bands or nothing was rotated."""
     if band_measures(vertices, mesh.quads, domain.target).passes:
         return None
     angles = corner_angles(vertices[mesh.quads])
     sums = np.bincount(mesh.quads.ravel(), weights=angles.ravel(), minlength=len(vertices))
-    quads, rotated = rotate_towards_ideal(mesh.quads, mesh.on_curve, sums)
+    quads, rotated = rotate_towards_ideal(mesh.quads, mesh.on_curve, sums, measure)
     if not rotated:
         return None
     edited = FlatQuads(mesh.nodes, quads, mesh.on_curve, mesh.size)
-    return "edge_rotations", edited, {"rotated": rotated}
+    name = "edge_rotations" if measure == "counts" else f"edge_rotations_by_{measure}"
+    return name, edited, {"rotated": rotated}
 
 
 def _wide_false_corners(domain: Domain, mesh: FlatQuads, vertices: np.ndarray) -> np.ndarray:

@@ -23,8 +23,17 @@ import numpy as np
 
 from .gates import CORNER_GOOD
 
-#: a rotation is made only where the squared differences fall by at least this much
-MIN_GAIN = 0.2
+#: the two ways a rotation's gain is measured (:func:`_gain`)
+MEASURES = ("band", "counts")
+#: a rotation is made only where its gain is at least this much (squared differences of
+#: counts, or degrees of band excess)
+MIN_GAIN = {"counts": 0.2, "band": 2.0}
+#: degrees: the band the corners' average is held in by the "band" measure, a degree inside
+#: the gates' 60-120°: three corners of 120.0° at a valence-3 vertex on a flat stretch are in
+#: the gates' band on paper, but one of them ends a fraction over it
+BAND = (CORNER_GOOD[0] + 1.0, CORNER_GOOD[1] - 1.0)
+#: the "band" measure's weight on the squared differences of counts, which break its ties
+COUNTS_WEIGHT = 0.5
 #: rotations made at most, per crowded or starved vertex
 ROTATIONS_PER_VERTEX = 3
 
@@ -42,12 +51,13 @@ def out_of_reach(counts: np.ndarray, angle_sums: np.ndarray) -> np.ndarray:
 
 
 def rotate_towards_ideal(
-    quads: np.ndarray, on_curve: np.ndarray, angle_sums: np.ndarray
+    quads: np.ndarray, on_curve: np.ndarray, angle_sums: np.ndarray, measure: str = "counts"
 ) -> tuple[np.ndarray, int]:
     """``quads`` (m, 4) with inner edges rotated (module docstring) around the vertices whose
     corners are out of reach; ``on_curve`` (n,) bool marks the boundary nodes, ``angle_sums``
-    (n,) each node's angle in degrees (the sum of its corners before). Returns the new quads
-    (same count, same orientation) and how many edges were rotated."""
+    (n,) each node's angle in degrees (the sum of its corners before); ``measure`` one of
+    :data:`MEASURES` (:func:`_gain`). Returns the new quads (same count, same orientation)
+    and how many edges were rotated."""
     quads = quads.copy()
     ideal = ideal_counts(angle_sums)
     counts = np.bincount(quads.ravel(), minlength=len(on_curve))
@@ -55,7 +65,7 @@ def rotate_towards_ideal(
     budget = ROTATIONS_PER_VERTEX * len(targets)
     done = 0
     while done < budget and len(targets):
-        best = _best_rotation(quads, on_curve, counts, ideal, targets)
+        best = _best_rotation(quads, on_curve, counts, ideal, targets, measure)
         if best is None:
             break
         (first, second), new = best
@@ -72,14 +82,15 @@ def _best_rotation(
     counts: np.ndarray,
     ideal: np.ndarray,
     targets: np.ndarray,
+    measure: str,
 ) -> tuple[tuple[int, int], tuple[np.ndarray, np.ndarray]] | None:
-    """The rotation of an inner edge of the quads round ``targets`` that lowers the squared
-    differences of counts from ``ideal`` most (by ``MIN_GAIN`` at least): the two quads it
-    replaces and the two new ones, or None."""
+    """The rotation of an inner edge of the quads round ``targets`` with the largest gain by
+    ``measure`` (``MIN_GAIN`` at least): the two quads it replaces and the two new ones, or
+    None."""
     sides = np.stack([quads, np.roll(quads, -1, axis=1)], axis=2)  # (m, 4, 2), directed
     owner = {(int(a), int(b)): q for q, quad in enumerate(sides) for a, b in quad}
     near = np.flatnonzero(np.isin(quads, targets).any(axis=1))
-    best, best_gain = None, MIN_GAIN
+    best, best_gain = None, MIN_GAIN[measure]
     for q in near:
         for at in range(4):
             v, w = int(quads[q, at]), int(quads[q, (at + 1) % 4])
@@ -87,7 +98,7 @@ def _best_rotation(
             if other is None or other < q and other in near:
                 continue  # a boundary side, or the pair seen from the other quad
             for new in _hexagon_splits(quads[q], at, quads[other], v):
-                gain = _gain(new, (quads[q], quads[other]), counts, ideal, on_curve)
+                gain = _gain(new, (quads[q], quads[other]), counts, ideal, on_curve, measure)
                 if gain > best_gain and _valid(new, owner):
                     best, best_gain = ((int(q), int(other)), new), gain
     return best
@@ -116,10 +127,16 @@ def _gain(
     counts: np.ndarray,
     ideal: np.ndarray,
     on_curve: np.ndarray,
+    measure: str,
 ) -> float:
-    """How much the squared differences of counts from ``ideal`` fall with ``new`` for
-    ``old``; minus infinity where a vertex would be left with too few panels (an inner
-    vertex under three, a boundary one under one)."""
+    """How much ``new`` for ``old`` lowers the six vertices' distance from their ideal:
+    by ``"counts"``, the sum of squared differences of their counts from ``ideal``; by
+    ``"band"``, the degrees by which their angles cannot be shared into :data:`BAND`, plus
+    ``COUNTS_WEIGHT`` x the first. The band measure gives a second panel to a 139° outline
+    corner of one panel at the price of a valence-3 vertex inside, which the counts refuse
+    (0.3 to 0.2 there against 0 to 1 inside), and which takes the layout's corners back
+    inside the gates' hard limit. Minus infinity where a vertex would be left with too few
+    panels (an inner vertex under three, a boundary one under one)."""
     ids = np.unique(np.concatenate(old))
     change = np.zeros(len(ids), dtype=int)
     for quad in new:
@@ -129,7 +146,19 @@ def _gain(
     after = counts[ids] + change
     if (after < np.where(on_curve[ids], 1, 3)).any():
         return -np.inf
-    return float(np.sum((counts[ids] - ideal[ids]) ** 2) - np.sum((after - ideal[ids]) ** 2))
+    squared = np.sum((counts[ids] - ideal[ids]) ** 2) - np.sum((after - ideal[ids]) ** 2)
+    if measure == "counts":
+        return float(squared)
+    angle = ideal[ids] * 90.0
+    excess = np.sum(_excess(counts[ids], angle)) - np.sum(_excess(after, angle))
+    return float(excess + COUNTS_WEIGHT * squared)
+
+
+def _excess(counts: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Degrees by which a vertex's angle exceeds what its panels' corners can take inside
+    the band (less a margin), or falls short of it."""
+    low, high = BAND
+    return np.maximum(angle - high * counts, 0.0) + np.maximum(low * counts - angle, 0.0)
 
 
 def _valid(new: tuple[np.ndarray, np.ndarray], owner: dict) -> bool:
