@@ -86,3 +86,36 @@ def test_spyrrow_without_improvement_time_is_reproducible():
         )
     assert results[0] == results[1]
     assert len(results[0]) == len(items)
+
+
+def test_a_point_beyond_a_sheets_corner_projects_to_its_nearest_point():
+    """OCCT's point projection finds no foot for a point just beyond a corner of a sheet's
+    B-spline surface (the pavilion's P152 at 1 m: its access opening's centre, 29 mm past the
+    corner; the panel was not built). ``project_to_surface`` falls back to the nearest point
+    of the bounded surface, and keeps OCCT's answer where there is a foot."""
+    from pathlib import Path
+
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRepTools import BRepTools
+    from OCP.GeomAPI import GeomAPI_ProjectPointOnSurf
+    from OCP.gp import gp_Pnt
+    from OCP.TopoDS import TopoDS, TopoDS_Shape
+
+    shape = TopoDS_Shape()
+    path = Path(__file__).parent / "data" / "pavilion_p152_sheet.brep"
+    assert BRepTools.Read_s(shape, str(path), BRep_Builder())
+    surface = BRep_Tool.Surface_s(TopoDS.Face(shape))
+    beyond = np.array([1163.349, 2622.435, 4488.231])
+    inside = np.array([1008.8, 2568.2, 4446.0])
+    projector = GeomAPI_ProjectPointOnSurf(gp_Pnt(*beyond), surface)
+    assert projector.NbPoints() == 0  # the quirk; if OCCT finds one, the fallback is idle
+
+    uv = occ.project_to_surface(surface, np.array([beyond, inside]))
+
+    grid = occ.sample_surface(surface, 201, 201).reshape(-1, 3)
+    nearest = np.linalg.norm(grid - beyond, axis=1).min()
+    found = occ.surface_derivatives(surface, uv)[0]
+    assert np.linalg.norm(found[0] - beyond) <= nearest + 0.01
+    assert np.isclose(uv[0][:, None], [0.0, 1.0], atol=1e-12).any()  # on the surface's edge
+    projector.Init(gp_Pnt(*inside), surface)
+    np.testing.assert_allclose(uv[1], projector.LowerDistanceParameters(), atol=1e-12)

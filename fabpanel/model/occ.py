@@ -56,6 +56,7 @@ from OCP.GeomAPI import (
 )
 from OCP.gp import gp_Ax2, gp_Dir, gp_Pln, gp_Pnt, gp_Pnt2d, gp_Vec
 from OCP.GProp import GProp_GProps
+from OCP.ShapeAnalysis import ShapeAnalysis_Surface
 from OCP.TopAbs import TopAbs_EDGE, TopAbs_SHELL, TopAbs_SOLID, TopAbs_VERTEX
 from OCP.TopExp import TopExp_Explorer
 from OCP.TopLoc import TopLoc_Location
@@ -78,6 +79,8 @@ FACE_TOLERANCE = 1e-6
 #: tolerance of a hole's edges, mm: their 3D curve and their curve on the sheet's surface are
 #: two interpolations through the same points, apart by far less between the points
 EDGE_TOLERANCE = 1e-4
+#: mm: how close the nearest point of a surface is found to a point beyond its edge
+PROJECTION_TOLERANCE = 1e-4
 
 
 # --------------------------------------------------------------------------------------------
@@ -233,14 +236,24 @@ def plane_section(
 
 def project_to_surface(surface: Geom_Surface, points: np.ndarray) -> np.ndarray:
     """(n, 2) float: the (u, v) parameters of the orthogonal projections of ``points (n, 3)``;
-    :class:`KernelError` when a point has no foot on the surface."""
+    where a point has no foot on the surface (it lies beyond the surface's edge), those of
+    the nearest point of the bounded surface, on its edge. (Seen on the pavilion: an access
+    opening's centre at its reach beyond a sheet's edge had no foot, and the panel was not
+    built; the projection is only the start of the opening's wall search, which says where
+    an opening leaves its sheet.)"""
     out = np.empty((len(points), 2))
     projector = GeomAPI_ProjectPointOnSurf()
+    nearest = None
     for i, p in enumerate(np.asarray(points, dtype=float)):
         projector.Init(gp_Pnt(*p), surface)
-        if projector.NbPoints() == 0:
-            raise KernelError(f"point {np.round(p, 3).tolist()} has no projection on the surface")
-        out[i] = projector.LowerDistanceParameters()
+        if projector.NbPoints() > 0:
+            out[i] = projector.LowerDistanceParameters()
+            continue
+        if nearest is None:
+            nearest = ShapeAnalysis_Surface(surface)
+        uv = nearest.ValueOfUV(gp_Pnt(*p), PROJECTION_TOLERANCE)
+        u0, u1, v0, v1 = surface.Bounds()  # ValueOfUV may land 1e-7 outside them
+        out[i] = np.clip(uv.X(), u0, u1), np.clip(uv.Y(), v0, v1)
     return out
 
 
