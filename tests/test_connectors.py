@@ -240,3 +240,39 @@ def test_the_summary_places_its_findings_in_the_design_frame(joints_compared, tm
     )
     for moved_place, place in places:
         np.testing.assert_allclose(moved_place, np.add(place, origin), atol=0.11)
+
+
+def test_an_overloaded_bolt_gets_the_smallest_bolt_that_carries_it():
+    # the pavilion's crown bolts: M12 8.8 in 8 mm ribs, 62.0 kN of tension (F_t,Rd 48.6 kN,
+    # utilisation 1.28); an M16 8.8 has F_t,Rd = 0.9 x 800 x 157 / 1.25 = 90.4 kN -> 0.686
+    from fabpanel.structure.bolt_checks import _advice, _bolt_that_carries
+    from fabpanel.structure.connectors import JointBolts, bolt_design
+
+    job = fp.Job.from_dict({"input": {"path": "x.obj"}})
+    design = bolt_design(job)
+    assert design.bolt.name == "M12"
+    joint = JointBolts(
+        names=("P001-RIB-0 bolt 0", "P001-RIB-0 bolt 1"),
+        points=np.zeros((2, 3)),
+        stations=np.zeros((2, 2, 3), int),
+        weights=np.full((2, 2), 0.5),
+        pitch=np.array([220.0, 220.0]),
+        end=np.array([60.0, 160.0]),
+    )
+    shear = np.array([[2.9e3, 1.0e3], [1.0e3, 7.2e3]])  # (K, b), N
+    tension = np.array([[62.0e3, 10.0e3], [30.0e3, 20.0e3]])
+
+    found = _bolt_that_carries(design, joint, shear, tension, job)
+
+    assert found is not None and found["bolt"] == "M16 8.8" and found["diameter_mm"] == 18.0
+    # tension governs: 62.0 / 90.43 = 0.686 (the interaction 2.9 / 60.29 + 62.0 /
+    # (1.4 x 90.43) = 0.538); M14 (66.2 kN, 0.94) is second choice and skipped
+    assert found["utilisation"] == pytest.approx(62.0 / (0.9 * 800 * 157 / 1.25 / 1e3), abs=1e-3)
+    assert 'diameter = "18 mm"' in _advice(found)
+    # 200 kN: M20 8.8 (141 kN) is short, M24 8.8 (203 kN) carries it
+    found = _bolt_that_carries(design, joint, shear, tension * 200 / 62, job)
+    assert found is not None and found["bolt"] == "M24 8.8"
+    # beyond every bolt the 150 mm ribs take (a hole up to 62 mm; M30 10.9 at 0.9 x 1000 x
+    # 561 / 1.25 = 404 kN): none, and the advice says to add bolts
+    assert _bolt_that_carries(design, joint, shear, tension * 10, job) is None
+    assert "more bolts" in _advice(None)
