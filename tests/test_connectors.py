@@ -268,11 +268,19 @@ def test_an_overloaded_bolt_gets_the_smallest_bolt_that_carries_it():
     # tension governs: 62.0 / 90.43 = 0.686 (the interaction 2.9 / 60.29 + 62.0 /
     # (1.4 x 90.43) = 0.538); M14 (66.2 kN, 0.94) is second choice and skipped
     assert found["utilisation"] == pytest.approx(62.0 / (0.9 * 800 * 157 / 1.25 / 1e3), abs=1e-3)
-    assert 'diameter = "18 mm"' in _advice(found)
+    advice = _advice(found, design, joint, 0, shear, tension, job)
+    assert "an M16 8.8 carries every bolt" in advice and 'diameter = "18 mm"' in advice
     # 200 kN: M20 8.8 (141 kN) is short, M24 8.8 (203 kN) carries it
     found = _bolt_that_carries(design, joint, shear, tension * 200 / 62, job)
     assert found is not None and found["bolt"] == "M24 8.8"
     # beyond every bolt the 150 mm ribs take (a hole up to 62 mm; M30 10.9 at 0.9 x 1000 x
     # 561 / 1.25 = 404 kN): none, and the advice says to add bolts
     assert _bolt_that_carries(design, joint, shear, tension * 10, job) is None
-    assert "more bolts" in _advice(None)
+    # where none carries every bolt, each overloaded bolt is told what it needs alone
+    many = tension.copy()
+    many[0, 0] = 620e3
+    advice = _advice(None, design, joint, 0, shear, many, job)
+    assert "none carries this one" in advice and "more bolts" in advice
+    many[0, 0], many[1, 1] = 100e3, 620e3
+    advice = _advice(None, design, joint, 0, shear, many, job)
+    assert 'this one needs an M20 8.8 ([sandwich.bolts] diameter = "22 mm"' in advice

@@ -188,7 +188,8 @@ def bolt_checks(
             "bolt-overloaded",
             f"{joint.names[b]}: utilisation {per_bolt[b]:.2f} under {names[int(k_of[b])]} "
             f"(shear {shear[k_of[b], b] / 1e3:.1f} kN, tension {tension[k_of[b], b] / 1e3:.1f} "
-            f"kN; {design.bolt.name} {design.grade}); {_advice(stronger)}",
+            f"kN; {design.bolt.name} {design.grade}); "
+            + _advice(stronger, design, joint, int(b), shear, tension, job),
             joint.names[b].split(" ")[0],
             "error",
         )
@@ -250,20 +251,41 @@ def _bolt_that_carries(
     return None
 
 
-def _advice(stronger: dict | None) -> str:
-    """What to change where bolts are overloaded (:func:`_bolt_that_carries`)."""
-    if stronger is None:
+def _advice(
+    stronger: dict | None,
+    design: BoltDesign,
+    joint: JointBolts,
+    b: int,
+    shear: np.ndarray,
+    tension: np.ndarray,
+    job,
+) -> str:
+    """What to change for the overloaded bolt ``b``: ``stronger``, the bolt that carries
+    every bolt (:func:`_bolt_that_carries`); where there is none, the one that carries this
+    bolt alone, as a part of the answer (the job has one bolt for every joint)."""
+    if stronger is not None:
         return (
-            "no standard bolt the ribs take carries it: use more bolts ([sandwich.bolts] "
-            "spacing) or deeper or thicker ribs"
+            f"an {stronger['bolt']} carries every bolt's forces of this model at "
+            f"{stronger['utilisation']:.2f} ({_bolt_keys(stronger)}; run the check again "
+            "with it), or use more bolts ([sandwich.bolts] spacing)"
         )
-    return (
-        f"an {stronger['bolt']} carries every bolt's forces of this model at "
-        f"{stronger['utilisation']:.2f} ([sandwich.bolts] diameter = "
-        f'"{stronger["diameter_mm"]:g} mm"'
-        + (f', grade = "{stronger["grade"]}"' if stronger["grade"] != "8.8" else "")
-        + "; run the check again with it), or use more bolts ([sandwich.bolts] spacing)"
+    alone = replace(joint, pitch=joint.pitch[[b]], end=joint.end[[b]])
+    own = _bolt_that_carries(design, alone, shear[:, [b]], tension[:, [b]], job)
+    this = (
+        f"this one needs an {own['bolt']} ({_bolt_keys(own)}, {own['utilisation']:.2f})"
+        if own is not None
+        else "none carries this one"
     )
+    return (
+        f"no standard bolt the ribs take carries every bolt's forces of this model, {this}: "
+        "use more bolts ([sandwich.bolts] spacing) or deeper or thicker ribs"
+    )
+
+
+def _bolt_keys(bolt: dict) -> str:
+    """The ``[sandwich.bolts]`` keys that ask for ``bolt`` (:func:`_bolt_that_carries`)."""
+    grade = f', grade = "{bolt["grade"]}"' if bolt["grade"] != "8.8" else ""
+    return f'[sandwich.bolts] diameter = "{bolt["diameter_mm"]:g} mm"{grade}'
 
 
 def write_bolts_csv(path: Path, summary: dict) -> None:
