@@ -222,9 +222,10 @@ def _bolt_that_carries(
     """The first bolt of :data:`FIRST_CHOICE`, larger sizes of the job's grade first and
     then 10.9, whose hole the ribs take (EN 1993-1-8 Table 3.3 as ``[sandwich.bolts]``
     checks it: ``rib_height >= 2.4 d0``, ``rib_thickness >= d0 / 6``) and which carries
-    every bolt's forces under every combination, with its utilisation; None where none does. The forces are this model's:
-    a stiffer bolt draws a little more (the pavilion's worst M12 bolt, 62.0 kN, is 63.4 kN
-    as an M16), so the suggestion is to be checked by running again with it."""
+    every bolt's forces under every combination, with its utilisation; None where none
+    does. The forces are this model's: a stiffer bolt draws a little more (the pavilion's
+    worst M12 bolt, 62.0 kN, is 63.4 kN as an M16), so the suggestion is to be checked by
+    running again with it."""
     from ..buildup import Buildup
 
     bu = Buildup.of(job)
