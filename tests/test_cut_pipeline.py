@@ -187,3 +187,21 @@ def test_no_label_is_crossed_by_a_hole_an_opening_or_the_outline(cone_run):
         for box in _glyph_boxes(part.labels):
             assert inside.contains(box), (part.id, box.bounds)
             assert not box.intersects(holes), (part.id, box.bounds)
+
+
+def test_the_cut_in_worker_processes_equals_the_cut_inline(cone_run):
+    """Unrolled and labelled in two worker processes or in this one: the same outlines,
+    labels, bend lines and marks, part for part."""
+    model, flat = cone_run
+    inline = fp.cut(model, fp.Job.from_dict({"develop": {"method": "global"}}), jobs=1)
+    assert [p.id for p in flat.parts] == [p.id for p in inline.parts]
+    for pooled, alone in zip(flat.parts, inline.parts):
+        assert pooled.mark == alone.mark
+        assert pooled.labels == alone.labels and pooled.labels
+        np.testing.assert_array_equal(pooled.outline, alone.outline)
+        assert len(pooled.bend_lines) == len(alone.bend_lines)
+        for a, b in zip(pooled.bend_lines, alone.bend_lines):
+            np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    assert [(m.mark, m.part_ids) for m in flat.marks] == [
+        (m.mark, m.part_ids) for m in inline.marks
+    ]

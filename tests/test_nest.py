@@ -284,3 +284,25 @@ def test_plate_files_take_the_part_files_fits_and_fit_nothing_again(mixed, tmp_p
         assert (tmp_path / "given" / dxf_name).read_bytes() == (
             tmp_path / "fresh" / dxf_name
         ).read_bytes()
+
+
+def test_a_part_as_long_as_the_plate_is_wide_is_not_turned_by_the_box_assignment():
+    """A part exactly as long as the plate's usable width may not lie across the plate (the
+    nest keeps shapes strictly inside), though rectpack's integer plate takes its turned box:
+    its box is grown along the plate so that rectpack cannot turn it."""
+    from fabpanel.flat.packing import Item, box_plates, fitting_rotations
+
+    length, height = 2490.1, 1240.1
+    shape = rectangle(1240.1, 198.1)
+    rotations = fitting_rotations(shape, [0, 90, 180, 270], length, height)
+    assert rotations == (0, 180)
+    items = [Item(flat_part(f"P{i:03d}-R", shape), shape, rotations) for i in range(14)]
+    plates = box_plates(items, length, height, True)
+    for plate in plates:
+        for item, t in zip(plate.items, plate.transforms):
+            corners = item.shape @ t[:2, :2].T + t[:2, 2]
+            assert np.ptp(corners[:, 0]) == pytest.approx(1240.1)  # along the plate
+            assert corners.min() >= 0 and corners[:, 0].max() <= length
+            assert corners[:, 1].max() <= height
+    assert sum(len(p.items) for p in plates) == 14
+    assert len(plates) == 2  # two rows of six along the plate, and two more

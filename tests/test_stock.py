@@ -187,3 +187,59 @@ def test_a_large_group_is_ranked_on_a_sample_and_its_choice_nested_in_full(monke
     assert len(again.plates) == best["plates"]
     np.testing.assert_allclose(again.metrics["bought_kg"], best["bought_kg"], rtol=1e-3)
     assert best["bought_kg"] <= nest(flat, j).metrics["bought_kg"] + 1e-6
+
+
+def test_a_large_group_is_ranked_by_the_boxes_of_a_sample(monkeypatch):
+    """Above ``BOX_SAMPLE_PARTS`` parts the bounding-box ranking packs every k-th part (its
+    time grows with the square of the parts), scaled to the group by area with the last plate
+    counted by its fill: close to the whole group's box count. A size too short for one part
+    left out of the sample is still refused."""
+    import fabpanel.flat.stock as stock_module
+    from fabpanel.flat.nest import nest_groups, on_stock, usable
+    from fabpanel.flat.packing import box_plates
+
+    parts = [
+        flat_part(f"P{i:03d}-R", rectangle(900.0 + 7 * (i % 60), 140.0 + i % 50))
+        for i in range(240)
+    ]
+    parts.insert(1, flat_part("P999-LONG", rectangle(2300.0, 150.0)))  # the second: not sampled
+    flat, j = FlatParts(parts=tuple(parts)), job()
+    (items,) = nest_groups(flat, j)[0].values()
+    packed = []
+    real = stock_module._box_counts
+    monkeypatch.setattr(
+        stock_module,
+        "_box_counts",
+        lambda its, *rest: packed.append(len(its)) or real(its, *rest),
+    )
+    monkeypatch.setattr(stock_module, "BOX_SAMPLE_PARTS", 81)
+    ranked = stock_module._box_ranked(items, j, 3.0 * 7.85e-6)
+    assert set(packed) == {81}  # every third part
+    sizes = {(s.length, s.width): kg for kg, s in ranked}
+    # the 2300 mm part is not in the sample, and the 2000 x 1000 format is refused for it
+    assert "P999-LONG" not in {it.part.id for it in items[::3]}
+    assert (2000.0, 1000.0) not in sizes and (2500.0, 1250.0) in sizes
+    # the sample's estimate against the whole group's box count, on the job's own stock
+    stock = j.cutting.stock_for(3.0)[0]
+    turns = {r % 180 for r in j.cutting.rotations} == {0, 90}
+    whole = len(box_plates(on_stock(items, j, stock), *usable(j, stock), turns))
+    estimate = sizes[(stock.length, stock.width)] / (stock.length * stock.width * 3.0 * 7.85e-6)
+    assert abs(estimate - whole) <= 0.1 * whole, (estimate, whole)
+
+
+def test_the_sizes_holding_every_part_are_those_the_nest_would_take():
+    """The vectorised fit of every part (rotations, 0.1 mm rounding, strictly inside) agrees
+    with the nest's own per-part check on every candidate size."""
+    import fabpanel.flat.stock as stock_module
+    from fabpanel.flat.nest import nest_groups, on_stock
+
+    parts = [
+        flat_part(f"P{i:03d}-S", rectangle(1000.0 + 60 * i, 400.0 + 50 * i)) for i in range(30)
+    ]
+    j = job(rotations=[0])
+    for jb in (j, job()):
+        (items,) = nest_groups(FlatParts(parts=tuple(parts)), jb)[0].values()
+        sizes = stock_module.candidate_sizes(jb, 3.0)
+        expected = [s for s in sizes if len(on_stock(items, jb, s)) == len(items)]
+        assert stock_module._holding_every_part(items, jb, sizes) == expected
+        assert 0 < len(expected) < len(sizes)

@@ -104,6 +104,18 @@ def packing_shape(outline: np.ndarray, grow: float) -> np.ndarray:
     return np.asarray(simple.exterior.coords)[:-1]
 
 
+def box_fits(width, height, length: float, plate_height: float):
+    """Whether boxes (float or arrays) fit a plate's usable ``length`` x ``plate_height``: the
+    same rounding as the box assignment (0.1 mm up, plate down), and strictly inside: spyrrow
+    fails on a shape exactly as high as its strip."""
+    return (
+        (np.ceil(np.multiply(width, 10)) <= np.floor(length * 10))
+        & (np.ceil(np.multiply(height, 10)) <= np.floor(plate_height * 10))
+        & (np.less(width, length - 1e-3))
+        & (np.less(height, plate_height - 1e-3))
+    )
+
+
 def fitting_rotations(
     shape: np.ndarray, rotations: list[int], length: float, height: float
 ) -> tuple[int, ...]:
@@ -111,14 +123,7 @@ def fitting_rotations(
     fits = []
     for r in rotations:
         w, h = size if r % 180 == 0 else size[::-1]
-        # the same rounding as the box assignment (0.1 mm up, plate down), and strictly inside:
-        # spyrrow fails on a shape exactly as high as its strip
-        if (
-            np.ceil(w * 10) <= np.floor(length * 10)
-            and np.ceil(h * 10) <= np.floor(height * 10)
-            and w < length - 1e-3
-            and h < height - 1e-3
-        ):
+        if box_fits(w, h, length, height):
             fits.append(int(r))
     return tuple(fits)
 
@@ -224,6 +229,25 @@ def _boxes(items: list[Item]) -> tuple[list[np.ndarray], list[np.ndarray]]:
     return base, boxes
 
 
+def _turns(item: Item) -> bool:
+    """Whether an item is kept from quarter turns: none of its rotations is one."""
+    return all((r - item.rotations[0]) % 180 != 90 for r in item.rotations)
+
+
+def _unturnable(box: np.ndarray, plate: tuple[int, int]) -> np.ndarray:
+    """An item's box (0.1 mm) grown so that rectpack cannot turn it on the plate, where only
+    the strict fit of :func:`box_fits` kept the turn from the item: a part within 0.1 mm of
+    the plate's width as long (rectpack takes a box as long as the plate's side)."""
+    if box[1] > plate[0] or box[0] > plate[1]:
+        return box  # the turned box does not fit rectpack's plate either
+    grown = box.copy()
+    if plate[1] + 1 <= plate[0]:
+        grown[0] = max(box[0], plate[1] + 1)
+    else:
+        grown[1] = max(box[1], plate[0] + 1)
+    return grown
+
+
 def box_plates(items: list[Item], length: float, height: float, rotate: bool) -> list[Packing]:
     """A first, always feasible assignment: the items' bounding boxes packed onto plates by
     rectpack (MaxRects, best-fit bins, quarter turns when ``rotate``), boxes rounded up to
@@ -231,9 +255,12 @@ def box_plates(items: list[Item], length: float, height: float, rotate: bool) ->
     packer = _packer(rectpack.MaxRectsBssf, rotate)
     # each box in the item's first allowed rotation; a turned box is a quarter turn more
     _, boxes = _boxes(items)
+    plate = (int(length * 10), int(height * 10))
+    if rotate:
+        boxes = [_unturnable(box, plate) if _turns(it) else box for it, box in zip(items, boxes)]
     for index, box_size in enumerate(boxes):
         packer.add_rect(int(box_size[0]), int(box_size[1]), rid=index)
-    packer.add_bin(int(length * 10), int(height * 10), count=float("inf"))
+    packer.add_bin(*plate, count=float("inf"))
     packer.pack()
     plates = []
     for plate_bin in packer:

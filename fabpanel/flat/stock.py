@@ -28,7 +28,7 @@ from ..data import FlatParts, Nests
 from ..job import Job, StockSection
 from ..parallel import worker_pool
 from .nest import nest_group, nest_groups, on_stock, packing_grow, usable
-from .packing import Item, box_plates
+from .packing import Item, box_fits, box_plates
 
 #: common stock formats (length, width) of sheet and plate, mm
 STANDARD_SIZES = (
@@ -58,6 +58,8 @@ NESTED_COIL = 2
 #: a group of more parts is ranked on the real nests of a sample of this many (every k-th
 #: part), and only the best candidate and the job's own stock are then nested in full
 SAMPLE_PARTS = 300
+#: a group of more parts is ranked by the bounding boxes of a sample of this many
+BOX_SAMPLE_PARTS = 1000
 
 
 def candidate_sizes(job: Job, thickness: float) -> list[StockSection]:
@@ -89,27 +91,57 @@ def _bought_by(candidate: tuple[tuple[str, float], StockSection], counts: dict, 
     return _bought(counts[_size_key(candidate)], stock, thickness * float(job.material.density))
 
 
-def _box_counts(items: list[Item], job: Job, stocks: list[StockSection]) -> list[int | None]:
+def _box_counts(
+    items: list[Item], job: Job, stocks: list[StockSection], scale: float = 1.0
+) -> list[float | None]:
     """Plates of each of ``stocks`` the items' bounding boxes need; None where a part fits
-    none (a worker process's task: rectpack on 2000 parts takes a quarter of a second a size,
-    and there are about 80 sizes)."""
+    none (a worker process's task: rectpack on 1000 parts takes a tenth of a second a size,
+    and there are about 80 sizes). With a ``scale`` (``items`` a sample of a group), the
+    plates the whole group would need by the sample's, counted as :func:`_scaled_plates`."""
     turns = {r % 180 for r in job.cutting.rotations} == {0, 90}
-    counts: list[int | None] = []
+    counts: list[float | None] = []
     for stock in stocks:
         fitting = on_stock(items, job, stock)
-        fits = len(fitting) == len(items)
-        counts.append(len(box_plates(fitting, *usable(job, stock), turns)) if fits else None)
+        if len(fitting) != len(items):
+            counts.append(None)
+            continue
+        plates = box_plates(fitting, *usable(job, stock), turns)
+        filled = [sum(item.area for item in plate.items) for plate in plates]
+        counts.append(_scaled_plates(filled, scale))
     return counts
+
+
+def _scaled_plates(filled: list[float], scale: float) -> float:
+    """The plates a group needs by the nest of a sample of it whose plates hold ``filled``
+    (mm2 of parts each): the sample's plates, the last one counted by how full it is against
+    the others, times ``scale`` (the group's net area over the sample's); the plain count when
+    ``scale`` is 1 (no sample)."""
+    if scale == 1.0:
+        return float(len(filled))
+    last = filled[-1] / float(np.mean(filled[:-1])) if len(filled) > 1 else 1.0
+    return (len(filled) - 1 + last) * scale
 
 
 def _box_ranked(
     items: list[Item], job: Job, kg_per_mm2: float, mapped: Callable = map, split: int = 1
 ) -> list[tuple[float, StockSection]]:
     """Candidates holding every part, by the steel their bounding-box nest buys; the sizes
-    counted in ``split`` interleaved shares through ``mapped``."""
-    sizes = candidate_sizes(job, float(items[0].part.thickness))
+    counted in ``split`` interleaved shares through ``mapped``.
+
+    rectpack's best-fit bins try every box on every open plate, so its time grows with the
+    square of the parts (4758 ribs: 2.5 s a size, 200 s for the sizes of one group): a group
+    of more than ``BOX_SAMPLE_PARTS`` parts is counted on every k-th part, scaled to the
+    group. The sizes that hold no part of the group are found on every part."""
+    sizes = _holding_every_part(items, job, candidate_sizes(job, float(items[0].part.thickness)))
+    sample, scale = _sample(items, BOX_SAMPLE_PARTS)
     shares = [sizes[i::split] for i in range(min(split, len(sizes)))]
-    counts = mapped(_box_counts, [items] * len(shares), [job] * len(shares), shares)
+    counts = mapped(
+        _box_counts,
+        [sample] * len(shares),
+        [job] * len(shares),
+        shares,
+        [scale] * len(shares),
+    )
     ranked = [
         (_bought(count, stock, kg_per_mm2), stock)
         for share, found in zip(shares, counts)
@@ -117,6 +149,24 @@ def _box_ranked(
         if count is not None
     ]
     return sorted(ranked, key=lambda r: (r[0], r[1].length * r[1].width))
+
+
+def _holding_every_part(
+    items: list[Item], job: Job, sizes: list[StockSection]
+) -> list[StockSection]:
+    """The sizes whose usable area holds every item in one of its rotations (as
+    :func:`fabpanel.flat.nest.on_stock`, all items at once)."""
+    extent = np.array([np.ptp(it.shape, axis=0) for it in items])
+    straight = np.array([any(r % 180 == 0 for r in it.rotations) for it in items])
+    turned = np.array([any(r % 180 != 0 for r in it.rotations) for it in items])
+    holding = []
+    for stock in sizes:
+        length, height = usable(job, stock)
+        fits = straight & box_fits(extent[:, 0], extent[:, 1], length, height)
+        fits |= turned & box_fits(extent[:, 1], extent[:, 0], length, height)
+        if fits.all():
+            holding.append(stock)
+    return holding
 
 
 def _candidates(
@@ -137,25 +187,20 @@ def _candidates(
 def _plates_on(items: list[Item], job: Job, stock: StockSection, scale: float = 1.0) -> float:
     """Plates of ``stock`` the items' real nest needs (a worker process's task); with a
     ``scale`` (the whole group's net area over that of ``items``, a sample of it), the plates
-    the whole group would need by the sample's: its plates, the last one counted by how full it
-    is against the others, times the scale."""
+    the whole group would need by the sample's (:func:`_scaled_plates`)."""
     fitting = on_stock(items, job, stock)
     plates, _ = nest_group(
         fitting, job, packing_grow(job), 0.0, job.cutting.seed, lambda _: None, stock
     )
-    if scale == 1.0:
-        return len(plates)
-    filled = [sum(item.area for item, _ in plate) for plate in plates]
-    last = filled[-1] / float(np.mean(filled[:-1])) if len(plates) > 1 else 1.0
-    return (len(plates) - 1 + last) * scale
+    return _scaled_plates([sum(item.area for item, _ in plate) for plate in plates], scale)
 
 
-def _sample(items: list[Item]) -> tuple[list[Item], float]:
-    """Every k-th item of a group larger than ``SAMPLE_PARTS`` (the whole group otherwise),
-    and the group's net area over the sample's."""
-    if len(items) <= SAMPLE_PARTS:
+def _sample(items: list[Item], size: int) -> tuple[list[Item], float]:
+    """Every k-th item of a group larger than ``size`` (the whole group otherwise), and the
+    group's net area over the sample's."""
+    if len(items) <= size:
         return items, 1.0
-    sample = items[:: math.ceil(len(items) / SAMPLE_PARTS)]
+    sample = items[:: math.ceil(len(items) / size)]
     return sample, sum(it.area for it in items) / sum(it.area for it in sample)
 
 
@@ -190,7 +235,7 @@ def suggest_stock(
     candidate they equal."""
     groups, _ = nest_groups(flat, job)
     known = _nested_already(nests, job)
-    samples = {key: _sample(items) for key, items in groups.items()}
+    samples = {key: _sample(items, SAMPLE_PARTS) for key, items in groups.items()}
     workers = jobs or os.cpu_count() or 1
     with ExitStack() as stack:
         mapped: Callable = map
