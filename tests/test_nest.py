@@ -306,3 +306,36 @@ def test_a_part_as_long_as_the_plate_is_wide_is_not_turned_by_the_box_assignment
             assert corners[:, 1].max() <= height
     assert sum(len(p.items) for p in plates) == 14
     assert len(plates) == 2  # two rows of six along the plate, and two more
+
+
+def test_a_large_box_assignment_is_packed_in_runs_of_the_largest_boxes_first(monkeypatch):
+    """Past ``BOX_CHUNK`` items the boxes are packed in runs (rectpack's best-fit time grows
+    with the square of the parts): every item is placed once, inside its plate, no two boxes
+    overlap, the runs go largest first, and each run costs at most one plate more."""
+    import shapely
+
+    import fabpanel.flat.packing as packing
+
+    rng = np.random.default_rng(3)
+    sizes = np.column_stack([rng.uniform(200, 1200, 90), rng.uniform(100, 700, 90)])
+    items = [
+        packing.Item(flat_part(f"P{i:03d}-R", rectangle(*s)), rectangle(*s), (0, 90, 180, 270))
+        for i, s in enumerate(sizes)
+    ]
+    whole = packing.box_plates(items, 2000.0, 1000.0, True)
+    monkeypatch.setattr(packing, "BOX_CHUNK", 30)
+    runs = packing.box_plates(items, 2000.0, 1000.0, True)
+    assert len(whole) <= len(runs) <= len(whole) + 2
+    placed = [id(it) for p in runs for it in p.items]
+    assert sorted(placed) == sorted(id(it) for it in items)
+    for plate in runs:
+        boxes = [
+            shapely.box(*(c := it.shape @ t[:2, :2].T + t[:2, 2]).min(axis=0), *c.max(axis=0))
+            for it, t in zip(plate.items, plate.transforms)
+        ]
+        assert all(b.bounds[0] >= 0 and b.bounds[1] >= 0 for b in boxes)
+        assert all(b.bounds[2] <= 2000.0 and b.bounds[3] <= 1000.0 for b in boxes)
+        assert shapely.union_all(boxes).area == pytest.approx(sum(b.area for b in boxes))
+    # the first plate holds boxes of the first run: the 30 largest
+    largest = sorted(items, key=lambda it: -it.area)[:30]
+    assert {id(it) for it in runs[0].items} <= {id(it) for it in largest}
