@@ -314,7 +314,7 @@ def test_a_large_box_assignment_is_packed_in_runs_of_the_largest_boxes_first(mon
     overlap, the runs go largest first, and each run costs at most one plate more."""
     import shapely
 
-    import fabpanel.flat.packing as packing
+    from fabpanel.flat import packing
 
     rng = np.random.default_rng(3)
     sizes = np.column_stack([rng.uniform(200, 1200, 90), rng.uniform(100, 700, 90)])

@@ -199,6 +199,36 @@ def test_shell_model_keeps_the_panel_and_compares_the_built_mass(design_partial,
     assert whole / design_partial.mass - 1 > 0.05  # the exclusion matters
 
 
+@pytest.mark.parametrize("joints", ["bolted", "rigid"])
+def test_the_rib_shells_carry_the_rib_plates_mass_and_the_sheets_theirs(
+    design_partial, job, joints
+):
+    """Kind by kind, the built panels' share of the shell model carries their parts' mass: the
+    rib shells (each panel's own where bolted; one of twice the thickness on a shared plane
+    where rigid) the rib plates', every trim, node cut and hole included; the sheet shells,
+    which meet at the rib planes, the sheets'. The panel not built gets the same rates."""
+    from fabpanel.structure.analysis import panels_built, shell_of
+    from fabpanel.structure.mesh import built_share
+
+    shell = shell_of(design_partial, job.replace(structure={"joints": joints}))
+    share = built_share(shell, panels_built(design_partial))
+    element_mass = shell.density * shell.thickness * shell.element_areas() * share
+    names = np.array([g.name for g in shell.groups])[shell.group]
+    parts = design_partial.parts
+
+    def kg(kind):
+        return sum(p.mass for p in parts if p.kind == kind)
+
+    ribs = float(element_mass[np.isin(names, ["RIB", "RIB2"])].sum())
+    assert ("RIB2" in set(names)) == (joints == "rigid")
+    assert ribs == pytest.approx(kg("rib"), rel=1e-9)
+    for group, kind in (("TOP", "sheet-top"), ("BOT", "sheet-bottom")):
+        assert float(element_mass[names == group].sum()) == pytest.approx(kg(kind), rel=1e-9)
+    # the rates: plates a little smaller than their shells (gaps, trims, holes)
+    factors = {g.name: g.density_factor for g in shell.groups}
+    assert 0.85 < factors["TOP"] < 1.0 and 0.85 < factors["RIB"] < 1.0
+
+
 @pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) is not installed")
 def test_structure_analyses_the_design_and_checks_the_mass_of_the_built_panels(
     design_partial, job, tmp_path
