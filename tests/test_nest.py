@@ -115,6 +115,39 @@ def test_oversize_part_is_an_issue():
     assert [pl.part_id for plate in nests.plates for pl in plate.placements] == ["P901-OK"]
 
 
+def test_a_part_too_wide_along_its_first_side_is_nested_turned_to_its_narrowest():
+    """A skewed sheet whose box along its first side fits no plate in any quarter turn is
+    turned to its narrowest bounding rectangle (an 1800 x 800 mm plate drawn at 30 degrees:
+    1959 x 1593 mm along its side, on a 2000 x 1000 mm plate); a part wider than the plate
+    at its narrowest is still refused, and says how narrow it gets. Where the job keeps the
+    parts' direction on the plate (no quarter turns), no part is turned."""
+    angle = np.radians(30.0)
+    turn = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    skewed = rectangle(1800, 800) @ turn.T
+    flat = FlatParts(
+        parts=(
+            flat_part("P903-SKEW", skewed),
+            flat_part("P904-OK", rectangle(500, 400)),
+            flat_part("P905-WIDE", rectangle(1800, 1100) @ turn.T),
+        )
+    )
+    nests = nest(flat, JOB)
+    assert [(i.code, i.item) for i in nests.issues] == [("part-too-large", "P905-WIDE")]
+    assert "1800 x 1100 mm at its narrowest" in nests.issues[0].message
+    assert validate_nests(nests, flat, JOB) == []
+    (placed,) = [
+        pl for plate in nests.plates for pl in plate.placements if pl.part_id == "P903-SKEW"
+    ]
+    t = np.asarray(placed.transform)
+    on_plate = skewed @ t[:2, :2].T + t[:2, 2]
+    assert on_plate.min() >= 0 and on_plate[:, 0].max() <= 2000 and on_plate[:, 1].max() <= 1000
+    # its long side lies along or across the plate
+    side = on_plate[1] - on_plate[0]
+    assert min(abs(side[0]), abs(side[1])) == pytest.approx(0.0, abs=1e-6)
+    kept = nest(flat, JOB.replace(cutting={"rotations": [0, 180]}))
+    assert {i.item for i in kept.issues} == {"P903-SKEW", "P905-WIDE"}
+
+
 def test_rotation_needed_to_fit():
     job = JOB.replace(cutting={"rotations": [0]})
     flat = FlatParts(parts=(flat_part("P902-TALL", rectangle(300, 1500)),))

@@ -54,6 +54,7 @@ from .packing import (
     box_plates,
     fill_plate,
     fitting_rotations,
+    narrowest_frame,
     pack_on_plate,
     packing_shape,
     round_seconds,
@@ -305,17 +306,27 @@ def nest_groups(
         shape = shapes[key]
         stocks = cutting.stock_for(float(part.thickness))
         rotations = tuple(int(r) for r in cutting.rotations)
-        if not any(
-            fitting_rotations(shape, list(rotations), *usable(job, stock)) for stock in stocks
-        ):
+        free = {r % 180 for r in rotations} == {0, 90}
+        if free and not _on_some_stock(shape, rotations, job, stocks):
+            # a part too wide along its first side may fit turned to its narrowest, where the
+            # job lets parts lie along and across the plate (the rolling direction does not
+            # matter to it); every part of its mark the same way: the turn follows from the
+            # shared shape
+            turned, turn = narrowest_frame(shape)
+            if _on_some_stock(turned, rotations, job, stocks):
+                shape, to_shape = turned, turn @ to_shape
+        if not _on_some_stock(shape, rotations, job, stocks):
             size = outline.max(axis=0) - outline.min(axis=0)
+            narrow = np.ptp(narrowest_frame(outline)[0], axis=0)
             sizes = " or ".join(f"{s.length:.0f} x {s.width:.0f}" for s in stocks) or "no stock"
             issues.append(
                 Issue(
                     "part-too-large",
-                    f"{part.id} ({size[0]:.0f} x {size[1]:.0f} mm plus {cutting.part_spacing:g} mm "
+                    f"{part.id} ({size[0]:.0f} x {size[1]:.0f} mm, {narrow[0]:.0f} x "
+                    f"{narrow[1]:.0f} mm at its narrowest, plus {cutting.part_spacing:g} mm "
                     f"spacing) fits no {sizes} mm plate with {cutting.plate_margin:g} mm margin "
-                    f"in rotations {list(cutting.rotations)}; it is left out of the nests",
+                    f"in rotations {list(cutting.rotations)}; it is left out of the nests: a "
+                    "wider stock plate or a smaller [panelize] panel_size",
                     part.id,
                     "error",
                 )
@@ -325,6 +336,13 @@ def nest_groups(
             Item(part, shape, rotations, key, to_shape)
         )
     return groups, issues
+
+
+def _on_some_stock(
+    shape: np.ndarray, rotations: tuple[int, ...], job: Job, stocks: list[StockSection]
+) -> bool:
+    """Whether the shape fits the usable area of one of ``stocks`` in one of ``rotations``."""
+    return any(fitting_rotations(shape, list(rotations), *usable(job, stock)) for stock in stocks)
 
 
 def _mark_frames(flat: FlatParts) -> dict[str, tuple[FlatPart, np.ndarray]]:

@@ -106,6 +106,21 @@ def packing_shape(outline: np.ndarray, grow: float) -> np.ndarray:
     return np.asarray(simple.exterior.coords)[:-1]
 
 
+def narrowest_frame(shape: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The shape turned so that its narrowest bounding rectangle (shapely's minimum rotated
+    rectangle) lies along x, and the (3, 3) turn (shape frame -> turned frame).
+
+    A skewed sheet's box along its first side can be far wider than the sheet itself (a new
+    9 x 6 m shell: 1684 x 1513 mm along the side, 1854 x 1301 mm at its narrowest)."""
+    rectangle = np.asarray(Polygon(shape).minimum_rotated_rectangle.exterior.coords)[:3]
+    sides = np.diff(rectangle, axis=0)
+    along = sides[int(np.argmax(np.linalg.norm(sides, axis=1)))]
+    c, s = along / np.linalg.norm(along)
+    turn = np.eye(3)
+    turn[:2, :2] = [[c, s], [-s, c]]
+    return shape @ turn[:2, :2].T, turn
+
+
 def box_fits(width, height, length: float, plate_height: float):
     """Whether boxes (float or arrays) fit a plate's usable ``length`` x ``plate_height``: the
     same rounding as the box assignment (0.1 mm up, plate down), and strictly inside: spyrrow
