@@ -5,7 +5,8 @@ Candidates are the common stock formats of hot- and cold-rolled sheet and plate 
 widths 1000, 1250, 1500, 2000 and 2500 mm (``STANDARD_SIZES``, 2000 x 1000 to 6000 x 2500), sheet
 cut to length from coil (2000-6000 mm in 250 mm steps, widths up to 2000 mm, up to 20 mm thick),
 and the job's own stock. Each is first ranked by the plates its parts' bounding boxes need (rectpack, a few
-milliseconds); the ``NESTED_CANDIDATES`` best are then nested for real (spyrrow's constructive
+milliseconds; on every k-th part of a group of more than ``BOX_SAMPLE_PARTS``, since rectpack's
+time grows with the square of the parts); the ``NESTED_CANDIDATES`` best are then nested for real (spyrrow's constructive
 pack, as :func:`fabpanel.flat.nest.nest` does with a 0 s budget) and the one with the least steel
 bought wins (fewer plates on a tie). A group of more than ``SAMPLE_PARTS`` parts is ranked on
 the real nests of a sample (every k-th part; each candidate's plates counted with the last one
