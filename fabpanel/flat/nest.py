@@ -306,16 +306,17 @@ def nest_groups(
         shape = shapes[key]
         stocks = cutting.stock_for(float(part.thickness))
         rotations = tuple(int(r) for r in cutting.rotations)
-        free = {r % 180 for r in rotations} == {0, 90}
-        if free and not _on_some_stock(shape, rotations, job, stocks):
+        fits = _on_some_stock(shape, rotations, job, stocks)
+        if not fits and {r % 180 for r in rotations} == {0, 90}:
             # a part too wide along its first side may fit turned to its narrowest, where the
             # job lets parts lie along and across the plate (the rolling direction does not
             # matter to it); every part of its mark the same way: the turn follows from the
             # shared shape
             turned, turn = narrowest_frame(shape)
-            if _on_some_stock(turned, rotations, job, stocks):
+            fits = _on_some_stock(turned, rotations, job, stocks)
+            if fits:
                 shape, to_shape = turned, turn @ to_shape
-        if not _on_some_stock(shape, rotations, job, stocks):
+        if not fits:
             size = outline.max(axis=0) - outline.min(axis=0)
             narrow = np.ptp(narrowest_frame(outline)[0], axis=0)
             sizes = " or ".join(f"{s.length:.0f} x {s.width:.0f}" for s in stocks) or "no stock"
