@@ -19,8 +19,10 @@
    small openings (about a panel across) are filled in for gmsh and the quad over each
    punched out afterwards (:mod:`.punch`), and the better layout kept;
 4. while a panel does not fit the usable plate, gmsh's next finer meshes at the same size are
-   placed (small layouts), then the whole layout is made again with panels 12 % smaller (up
-   to three rounds), as the skeleton method divides its strips again.
+   placed (small layouts), then the layout is made again with the size field 12 % smaller
+   near the panels that miss (up to three rounds), and where that layout fails a gate, also
+   with panels 12 % smaller everywhere, as the skeleton method divides its strips again, and
+   the better kept.
 
 Any count of openings works; the surface must be one piece with a boundary (a closed surface
 has no loop to flatten from) of disc-like topology with holes.
@@ -29,12 +31,7 @@ has no loop to flatten from) of disc-like topology with holes.
 from __future__ import annotations
 
 import logging
-import os
-import subprocess
-import sys
-import tempfile
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -47,7 +44,9 @@ from ..surface import SurfaceQuery
 from ..units import length_scale
 from .boundary import DesignBoundary
 from .corners import ROUNDING_TURN, OutlineCorners, outline_corners, small_openings
+from .decompose import oversize_panels
 from .densify import Strip, quad_edges
+from .field_mesh import Meshed, gmsh_quads
 from .field_place import (
     CORNER_TOLERANCE,
     Domain,
@@ -80,8 +79,12 @@ from .strip_ops import (
 log = logging.getLogger(__name__)
 
 #: rounds of smaller panels while some panel does not fit the usable plate, and the factor
+#: of each round near the panels that miss (:func:`_smaller_near_misses`)
 PLATE_ROUNDS = 3
 PLATE_SHRINK = 0.88
+#: ... fully within the first many panel sizes of a missing panel's centre, not at all beyond
+#: the second
+NEAR_MISS = (1.0, 2.5)
 
 #: a second layout (small openings punched or squared, another topology step) is made only
 #: beside one of at most this many panels that fails a gate: an opening about a panel across
@@ -123,9 +126,6 @@ FINER_FOR_GATES = 2
 STRIP_ROUNDS = 3
 STRIP_TRIES = 2
 
-#: a gmsh run longer than this is stopped (it never takes more than seconds on 5000 panels)
-GMSH_TIMEOUT = 300.0
-
 
 def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
     """Panel layout by the field method (see the module docstring)."""
@@ -160,6 +160,7 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
         domain = Domain(
             flat_mesh=flat_mesh,
             scale=scale,
+            flat_scale=scale,
             points=points,
             track=_boundary_track(kept, flat),
             boundary=boundary,
@@ -170,9 +171,8 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
         )
         try:
             # strips split or collapsed where it fails the gates on edge lengths
-            placed = _with_strip_edits(
-                surface, domain, job, _fitted_layout(surface, mesher, domain, job)
-            )
+            fitted, domain = _fitted_layout(surface, mesher, domain, job)
+            placed = _with_strip_edits(surface, domain, job, fitted)
         except PunchFailed as failed:
             log.info("small openings not punched: %s", failed)
             continue
@@ -251,37 +251,101 @@ def _layout(vertices: np.ndarray, quads: np.ndarray) -> PanelLayout:
     return PanelLayout(vertices=vertices, quads=quads, panel_ids=ids, method="field")
 
 
-def _fitted_layout(surface: Surface, mesher: OutlineCorners, domain: Domain, job: Job) -> _Placed:
+def _fitted_layout(
+    surface: Surface, mesher: OutlineCorners, domain: Domain, job: Job
+) -> tuple[_Placed, Domain]:
     """gmsh's quads of the outline ``mesher`` placed on the surface (the better of two
-    topology settings where the first fails, ``TOPOLOGIES``); while a panel misses the plate,
-    made again with smaller panels everywhere (module docstring, step 4). A finer mesh of
-    gmsh's that fits at the size before (:func:`_placed_mesh`) is kept beside one more round's
-    result, and the better scoring layout taken (hypar_hole at 1.2 m, its opening meshed as a
-    loop: 42 panels at the asked size against 58 and 62 after one and two rounds). Raises :class:`.punch.PunchFailed`
-    where the first mesh has a small opening no quad can be punched for; where a later one
-    has, the rounds stop there."""
+    topology settings where the first fails, ``TOPOLOGIES``), and the domain whose size field
+    made it; while a panel misses the plate, made again with smaller panels (module
+    docstring, step 4): near those that miss first, and where that layout fails a gate (of
+    at most ``SECOND_LAYOUT_UP_TO_PANELS`` panels), everywhere as well, the better kept. Raises :class:`.punch.PunchFailed` where the first
+    mesh has a small opening no quad can be punched for."""
+    min_width = min_panel_width(job)
+    near, rounds = _plate_rounds(surface, mesher, domain, job, everywhere=False)
+    placed = near[0]
+    if (
+        rounds == 0
+        or len(placed.mesh.quads) > SECOND_LAYOUT_UP_TO_PANELS
+        or (placed.fits and meets_every_gate(placed.measures, min_width, True))
+    ):
+        return near
+    try:
+        everywhere, _ = _plate_rounds(surface, mesher, domain, job, everywhere=True)
+    except PunchFailed:
+        return near
+    placed.info["plate_rounds_everywhere"] = {
+        "score_near": round(layout_score(placed.measures, min_width), 4),
+        "score_everywhere": round(layout_score(everywhere[0].measures, min_width), 4),
+    }
+    return max(near, everywhere, key=lambda f: (f[0].fits, layout_score(f[0].measures, min_width)))
+
+
+def _plate_rounds(
+    surface: Surface, mesher: OutlineCorners, domain: Domain, job: Job, everywhere: bool
+) -> tuple[tuple[_Placed, Domain], int]:
+    """The layout of :func:`_fitted_layout` with its domain, and the rounds it took: while a
+    panel misses the plate, made again with panels ``PLATE_SHRINK`` x smaller ``everywhere``
+    or near those that miss (:func:`_smaller_near_misses`). A finer mesh of gmsh's that fits
+    at the size before (:func:`_placed_mesh`) is kept beside one more round's result, and
+    the better scoring layout taken (hypar_hole at 1.2 m, its opening meshed as a loop: 42
+    panels at the asked size against 58 and 62 after one and two rounds everywhere). Where a
+    later round's mesh has a small opening no quad can be punched for, the rounds stop."""
     size = job.panelize.panel_size
     min_width = min_panel_width(job)
-    fitted: list[_Placed] = []  # layouts of earlier rounds that fit (finer meshes)
-    best: _Placed | None = None
-    for plate_round in range(PLATE_ROUNDS + 1):
+    fitted: list[tuple[_Placed, Domain]] = []  # layouts of earlier rounds that fit
+    best: tuple[_Placed, Domain] | None = None
+    rounds = 0
+    for rounds in range(PLATE_ROUNDS + 1):
         try:
             placed = _round_of_layouts(surface, mesher, domain, job, size, min_width)
         except PunchFailed:
             if best is None:
                 raise
             break
+        smallest = size / job.panelize.panel_size * np.min(domain.scale / domain.flat_scale)
         for layout in placed:
-            layout.info.update(plate_rounds=plate_round, size_used_mm=round(float(size), 1))
+            layout.info.update(
+                plate_rounds=rounds,
+                plate_rounds_where="everywhere" if everywhere else "near",
+                smallest_size_factor=round(float(smallest), 3),
+            )
         # fits first, then the score; the first topology on a tie
-        best = max(placed, key=lambda p: (p.fits, layout_score(p.measures, min_width)))
-        done = best.fits and "finer_mesh" not in best.info
-        if done or plate_round == PLATE_ROUNDS or fitted:
+        chosen = max(placed, key=lambda p: (p.fits, layout_score(p.measures, min_width)))
+        best = (chosen, domain)
+        done = chosen.fits and "finer_mesh" not in chosen.info
+        if done or rounds == PLATE_ROUNDS or fitted:
             break  # (one round after a finer mesh that fitted, to compare)
-        fitted += [layout for layout in placed if layout.fits]
-        size *= PLATE_SHRINK  # some panels miss the plate: smaller panels everywhere
+        fitted += [(layout, domain) for layout in placed if layout.fits]
+        if everywhere:
+            size *= PLATE_SHRINK
+        else:
+            domain = _smaller_near_misses(domain, chosen, job)
     assert best is not None
-    return max([best, *fitted], key=lambda p: (p.fits, layout_score(p.measures, min_width)))
+    kept = max([best, *fitted], key=lambda f: (f[0].fits, layout_score(f[0].measures, min_width)))
+    return kept, rounds
+
+
+def _smaller_near_misses(domain: Domain, placed: _Placed, job: Job) -> Domain:
+    """``domain`` with its size field ``PLATE_SHRINK`` x smaller near the panels of ``placed``
+    that miss the plate (within ``NEAR_MISS[0]`` panel sizes of a missing panel's centre,
+    blending to unchanged at ``NEAR_MISS[1]``), where it was the same everywhere: one
+    oversize panel at a tip of seed 63 of ``benchmarks/random_shapes.py`` made its 35
+    m² 53 panels, not 44. The size field is the panel size x ``domain.scale``, the flat
+    length per surface length, for gmsh and for the smoothing alike: a smaller scale asks
+    for smaller panels there."""
+    from scipy.spatial import cKDTree
+
+    mesh = placed.mesh
+    missing = oversize_panels(placed.vertices, mesh.quads, job)
+    if not missing.any():
+        return domain
+    centres = mesh.nodes[mesh.quads[missing]].mean(axis=1)
+    flat = domain.flat_mesh.flat
+    # surface distance in panel sizes: flat distance over the flattening's own scale
+    reach = cKDTree(centres).query(flat)[0] / domain.flat_scale / job.panelize.panel_size
+    near, far = NEAR_MISS
+    weight = np.clip((far - reach) / (far - near), 0.0, 1.0)
+    return replace(domain, scale=domain.scale * (1.0 - (1.0 - PLATE_SHRINK) * weight))
 
 
 def _round_of_layouts(
@@ -323,7 +387,7 @@ def _worth_another_topology(placed: _Placed, min_width: float) -> bool:
 
 
 def _better_of_finer(
-    surface: Surface, domain: Domain, job: Job, meshes: list[_Meshed], first: _Placed
+    surface: Surface, domain: Domain, job: Job, meshes: list[Meshed], first: _Placed
 ) -> _Placed:
     """Where the first mesh fits the plate but fails a gate, gmsh's next ``FINER_FOR_GATES``
     finer meshes (up to ``FINER_AT_MOST`` x the quads) placed too, and the one that fits and
@@ -363,7 +427,7 @@ def _placed_mesh(
     passed over), the first that fits kept: QQS's count moves in steps (34, 42, 50, 58 quads
     on a hypar at 1.2 m), and a step finer often fits where the caller's plate round, 12 %
     smaller everywhere, would add a third more panels."""
-    meshes = _gmsh_quads(
+    meshes = gmsh_quads(
         surface, domain.flat_mesh.flat, domain.scale, mesher, domain.points, job, size, topology
     )
     first = _placed(surface, domain, job, meshes[0])
@@ -378,7 +442,7 @@ def _placed_mesh(
     return first
 
 
-def _finer_placed(surface: Surface, domain: Domain, job: Job, meshes: list[_Meshed]):
+def _finer_placed(surface: Surface, domain: Domain, job: Job, meshes: list[Meshed]):
     """``(k, placed)`` for gmsh's finer meshes ``meshes[1:]`` in turn, placed as the caller
     asks, up to ``FINER_AT_MOST`` x the first's quads; one that cannot be punched is passed
     over."""
@@ -391,7 +455,7 @@ def _finer_placed(surface: Surface, domain: Domain, job: Job, meshes: list[_Mesh
             continue
 
 
-def _placed(surface: Surface, domain: Domain, job: Job, meshed: _Meshed) -> _Placed:
+def _placed(surface: Surface, domain: Domain, job: Job, meshed: Meshed) -> _Placed:
     """One of gmsh's meshes punched (small openings) and placed on the surface."""
     nodes, quads, on_curve = meshed.nodes, meshed.quads, meshed.on_curve
     if domain.punches:
@@ -486,18 +550,6 @@ def _strip_edits(domain: Domain, placed: _Placed, report: dict):
                 yield kind, made
 
 
-@dataclass(frozen=True)
-class _Meshed:
-    """One of gmsh's meshes of the flat domain as it came (before punching and placing), the
-    panel size it was made for and the report of its making."""
-
-    nodes: np.ndarray
-    quads: np.ndarray
-    on_curve: np.ndarray
-    size: float
-    info: dict
-
-
 def _singular_points(
     surface: Surface, job: Job, query: SurfaceQuery, flat_mesh: FlatMesh
 ) -> np.ndarray:
@@ -540,103 +592,6 @@ def _cut_corner_issues(surface: Surface, outline: OutlineCorners) -> tuple[Issue
 def _boundary_track(outline: OutlineCorners, flat: np.ndarray) -> BoundaryTrack:
     """The flat boundary loops, kinked at the outline's corners, for the sliding nodes."""
     return BoundaryTrack.from_loops([flat[loop] for loop in outline.loops], list(outline.corners))
-
-
-def _gmsh_quads(
-    surface: Surface,
-    flat: np.ndarray,
-    scale: np.ndarray,
-    outline: OutlineCorners,
-    points: np.ndarray,
-    job: Job,
-    size: float,
-    topology: int,
-) -> list[_Meshed]:
-    """Run :mod:`.gmsh_quads` on the flat domain in a child process with QQS's ``topology``
-    steps; the mesh it chose, then the finer ones it returned beside it."""
-    from ..parallel import child_preexec
-
-    cross: dict = {}
-    if job.panelize.align == "curvature":
-        from .cross_field import curvature_cross_field
-
-        cross["cross"], _ = curvature_cross_field(
-            surface.vertices, surface.faces, flat, surface.boundary_loops
-        )
-    loops = list(outline.loops)
-    starts = np.cumsum([0, *[len(loop) for loop in loops[:-1]]])
-    with tempfile.TemporaryDirectory(prefix="fabpanel-gmsh-") as folder:
-        source, target = Path(folder) / "in.npz", Path(folder) / "out.npz"
-        np.savez(
-            source,
-            flat=flat,
-            faces=surface.faces,
-            scale=scale,
-            loops=np.concatenate(loops),
-            loop_starts=starts,
-            corners=np.concatenate(outline.corners),
-            points=points,
-            h=float(size),
-            area=surface.area,
-            topology=topology,
-            **cross,
-        )
-        script = Path(__file__).with_name("gmsh_quads.py")
-        env = {**os.environ, "OMP_NUM_THREADS": "1"}
-        try:
-            run = subprocess.run(
-                [sys.executable, str(script), str(source), str(target)],
-                capture_output=True,
-                text=True,
-                timeout=GMSH_TIMEOUT,
-                preexec_fn=child_preexec,
-                env=env,
-                check=False,
-            )
-        except subprocess.TimeoutExpired:
-            raise GeometryError(
-                f"{surface.source.name}: gmsh's quad mesher took longer than "
-                f'{GMSH_TIMEOUT:.0f} s; use [panelize] method = "skeleton"'
-            ) from None
-        if run.returncode != 0 or not target.is_file():
-            reason = (run.stderr.strip().splitlines() or [f"exit {run.returncode}"])[-1]
-            raise GeometryError(
-                f"{surface.source.name}: gmsh's quad mesher failed ({reason}); use "
-                f'[panelize] method = "skeleton"'
-            )
-        out = np.load(target)
-        info = {
-            "size_factor": round(float(out["factor"]), 4),
-            "flat_score": round(float(out["score"]), 4),
-            "gmsh_meshes": int(out["meshes"]),
-            "gmsh_topology": topology,
-            "gmsh_seconds": round(float(out["seconds"]), 2),
-        }
-        chosen = _Meshed(out["nodes"], out["quads"].astype(np.int64), out["on_curve"], size, info)
-        return [chosen, *_finer_meshes(out, size, info)]
-
-
-def _finer_meshes(out, size: float, info: dict) -> list[_Meshed]:
-    """The finer meshes :mod:`.gmsh_quads` returned beside the chosen one, fewest quads first."""
-    if not len(out["finer_factors"]):
-        return []
-    node_ends = np.cumsum(out["finer_node_counts"])
-    quad_ends = np.cumsum(out["finer_quad_counts"])
-    nodes = np.split(out["finer_nodes"], node_ends[:-1])
-    quads = np.split(out["finer_quads"].astype(np.int64), quad_ends[:-1])
-    on_curve = np.split(out["finer_on_curve"], node_ends[:-1])
-    return [
-        _Meshed(
-            n,
-            q,
-            c,
-            size,
-            {**info, "size_factor": round(float(f), 4), "flat_score": round(float(sc), 4)},
-        )
-        for n, q, c, f, sc in zip(
-            nodes, quads, on_curve, out["finer_factors"], out["finer_scores"], strict=True
-        )
-    ]
 
 
 def _orient_outwards(vertices: np.ndarray, quads: np.ndarray, query: SurfaceQuery) -> np.ndarray:

@@ -61,7 +61,11 @@ class Domain:
     """The flattened design surface and what placing quads on it needs, made once."""
 
     flat_mesh: FlatMesh
+    #: flat length per surface length of a panel of the asked size at each flat vertex: the
+    #: flattening's own scale (``flat_scale``), smaller where a plate round asks for smaller
+    #: panels (:func:`.field._smaller_near_misses`)
     scale: np.ndarray
+    flat_scale: np.ndarray
     points: np.ndarray  # the singular points, flat
     track: BoundaryTrack
     boundary: DesignBoundary
