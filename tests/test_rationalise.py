@@ -48,8 +48,17 @@ def test_jacobian_matches_finite_differences(tmp_path):
     design = sample_panels(layout, query, 4)
     samples, normals = design.samples, design.normals
     solver = GlobalOptimiser(
-        layout, samples, normals, query, closeness=0.1, fairness=0.1, rib=1.0, depth=150.0
+        layout,
+        samples,
+        normals,
+        query,
+        closeness=0.1,
+        fairness=0.1,
+        rib=1.0,
+        depth=150.0,
+        layout_hold=1.0,
     )
+    assert len(solver.held) == 1  # the 2 x 2 grid's middle vertex
     rng = np.random.default_rng(0)
     z = solver.z + rng.normal(0, 1e-3, solver.z.shape)
     x, *_ = solver.unpack(z)
@@ -235,3 +244,31 @@ def test_the_sheets_bicubic_between_the_samples_stays_developable(tmp_path):
             outline=None, frame=None,
         )  # fmt: skip
         assert unroll_sheet(sheet).max_strain < tolerance, pid
+
+
+def test_the_layout_hold_keeps_the_panel_corners_where_the_layout_put_them(tmp_path):
+    # a 6 x 6 m cap of a 5 m sphere in 3 x 3 panels: free, the four inner corners slide 140 mm
+    # along the surface (the panels the layout sized are not the ones built); held, 2 mm, and
+    # the panels are no less developable nor farther from the design
+    surface = _cap(tmp_path, n=12)
+    found = {}
+    for hold in (0.0, 1.0):
+        job = Job.from_dict(
+            {
+                "panelize": {"grid_u": 3, "grid_v": 3},
+                "develop": {"layout_hold": hold, "samples": 5, "max_iterations": 30},
+            }
+        )
+        layout = panelize(surface, job)
+        developed = develop(layout, surface, job)
+        found[hold] = developed.metrics
+        # corner c of a panel is sample (0, 0), (k-1, 0), (k-1, k-1), (0, k-1)
+        corners = developed.samples[:, [0, -1, -1, 0], [0, 0, -1, -1]]
+        inner = np.isin(layout.quads, np.flatnonzero(np.bincount(layout.quads.ravel()) == 4))
+        slid = np.linalg.norm(corners - layout.vertices[layout.quads], axis=2)[inner]
+        # the metric is the slide in the tangent plane; the full move adds the deviation
+        assert found[hold]["corner_slide_mm"]["max"] <= slid.max() + 1e-6
+    assert found[0.0]["corner_slide_mm"]["max"] > 100.0  # measured 141 mm
+    assert found[1.0]["corner_slide_mm"]["max"] < 5.0  # measured 2.2 mm
+    assert found[1.0]["unroll_strain"]["max"] <= 1.05 * found[0.0]["unroll_strain"]["max"]
+    assert found[1.0]["deviation_mm"]["mean"] <= found[0.0]["deviation_mm"]["mean"]

@@ -34,6 +34,9 @@ fairness                change of ``(x[i-1] - 2 x[i] + x[i+1]) / L`` along    ``
                         grid lines against the design's (a mesh design
                         smoothed to one bicubic a panel first)
 boundary                ``(x - x0) / L`` for samples on the design boundary    ``BOUNDARY_WEIGHT``
+layout hold             ``(I - nu0 nu0') (x - x0) / L`` at the layout's inner     ``layout_hold``
+                        vertices (panel corners): their slide along the
+                        design surface (normal ``nu0`` at the start)
 ======================  ====================================================  ===============
 
 ``L`` is the mean panel edge length, so every residual is dimensionless and the weights do not
@@ -274,6 +277,7 @@ class GlobalOptimiser:
         fairness: float,
         rib: float,
         depth: float,
+        layout_hold: float = 0.0,
     ):
         self.layout = layout
         self.query = query
@@ -292,6 +296,7 @@ class GlobalOptimiser:
             "fairness": fairness,
             "rib": rib,
             "defect": DEFECT_WEIGHT,
+            "layout_hold": layout_hold,
         }
         # both triangulations of the grid: the unroll strain measures both diagonals of every
         # cell, so the grid must be flat across either
@@ -321,6 +326,12 @@ class GlobalOptimiser:
             self.start_points[self.mesh.ids], faceted=not query.exact
         )
         self.start_normals = normals  # outward: orient the results like them
+        # the layout's inner vertices (sample ids 0..nv-1, :func:`sample_mesh`) and the
+        # projections onto the design's tangent planes there, which the layout hold measures
+        vertices = np.arange(len(layout.vertices))
+        self.held = vertices[~self.mesh.boundary[vertices]]
+        _, foot_normal, _ = query.closest(self.mesh.points[self.held])
+        self.held_tangent = np.eye(3) - foot_normal[:, :, None] * foot_normal[:, None, :]
         self.z = self._initial(normals)
 
     # -- unknowns ---------------------------------------------------------------------------
@@ -500,6 +511,21 @@ class GlobalOptimiser:
                     [(3 * a + comp, one), (3 * b + comp, -2 * one), (3 * e + comp, one)],
                     self.weights["fairness"],
                 )
+        # the panel corners stay where the layout put them along the surface (their distance
+        # from it is the closeness term's)
+        held = self.held
+        if len(held) and self.weights["layout_hold"] > 0:
+            slide = np.einsum("nab,nb->na", self.held_tangent, x[held] - self.start_points[held])
+            system.add(
+                slide.ravel(),
+                [
+                    (
+                        np.broadcast_to(xcol(held)[:, None, :], self.held_tangent.shape),
+                        self.held_tangent,
+                    )
+                ],
+                self.weights["layout_hold"],
+            )
         # boundary samples stay where they are
         on = np.flatnonzero(self.mesh.boundary)
         if len(on):
@@ -681,6 +707,14 @@ class GlobalOptimiser:
         cells = n / np.linalg.norm(n, axis=-1, keepdims=True)
         return samples, normals, np.concatenate([h, d[:, None]], axis=1), ribs, cells
 
+    def corner_slides(self) -> np.ndarray:
+        """How far each inner vertex of the layout (a panel corner) has slid along the design
+        surface (in its tangent plane at the start), mm."""
+        x = self.unpack(self.z)[0]
+        moved = x[self.held] - self.start_points[self.held]
+        slide = np.einsum("nab,nb->na", self.held_tangent, moved)
+        return np.linalg.norm(slide, axis=1) * self.scale
+
 
 def shared_side_normals(layout: PanelLayout, normals: np.ndarray) -> np.ndarray:
     """Own normals with every shared side set to the bisector of the two panels' normals, so
@@ -727,6 +761,7 @@ def develop_global(layout: PanelLayout, surface, job, query: SurfaceQuery):
         fairness=settings.fairness,
         rib=settings.rib_planarity,
         depth=Buildup.of(job).total_depth,
+        layout_hold=settings.layout_hold,
     )
     report = optimiser.solve(
         settings.max_iterations, settings.tolerance, float(settings.step_tolerance)
@@ -754,6 +789,8 @@ def develop_global(layout: PanelLayout, surface, job, query: SurfaceQuery):
             ),
         },
         "gap_mm_max": round(float(gaps.max()), 6),
+        # the panel corners' slide along the surface, which the layout hold keeps small
+        "corner_slide_mm": _spread(optimiser.corner_slides()),
         "gauss_circle_residual_deg_max": round(float(circle.max()), 4),
     }
     issues = []
@@ -785,3 +822,14 @@ def develop_global(layout: PanelLayout, surface, job, query: SurfaceQuery):
         panel["gauss_image_area_before"] = float(before[i])
         panel["gauss_circle_residual_deg"] = round(float(circle[i]), 4)
     return result
+
+
+def _spread(values: np.ndarray) -> dict[str, float]:
+    """Median, 90th percentile and largest of ``values`` (zeros where there are none)."""
+    if not len(values):
+        return {"median": 0.0, "p90": 0.0, "max": 0.0}
+    return {
+        "median": round(float(np.median(values)), 3),
+        "p90": round(float(np.percentile(values, 90)), 3),
+        "max": round(float(values.max()), 3),
+    }
