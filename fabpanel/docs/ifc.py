@@ -279,17 +279,48 @@ def _plate(model, body, part, mesh, origin: np.ndarray, placement):
     return plate
 
 
-def _property_set(model, product, name: str, values: dict) -> None:
-    """A property set (or, for a ``Qto_`` name, a quantity set) on ``product``."""
-    import ifcopenshell.api.pset
+#: the quantity entity of each Qto_PlateBaseQuantities quantity (IFC4's template)
+QUANTITY_ENTITY = {
+    "Width": "IfcQuantityLength",
+    "NetArea": "IfcQuantityArea",
+    "NetVolume": "IfcQuantityVolume",
+    "NetWeight": "IfcQuantityWeight",
+}
 
-    api = ifcopenshell.api
+
+def _property_set(model, product, name: str, values: dict) -> None:
+    """A property set (or, for a ``Qto_`` name, a quantity set) on ``product``: the entities
+    ifcopenshell's ``pset.add_pset``/``edit_pset`` (``add_qto``/``edit_qto``) make, made
+    directly (the API looks up the schema's templates for every property of every part, a
+    quarter of the IFC's time). Text is an IfcLabel, a number an IfcReal; ``None`` is left
+    out, as the API does."""
+    given = {key: value for key, value in values.items() if value is not None}
     if name.startswith("Qto_"):
-        api.pset.edit_qto(model, qto=api.pset.add_qto(model, product=product, name=name),
-                          properties=values)  # fmt: skip
+        quantities = [
+            model.create_entity(QUANTITY_ENTITY[key], key, None, None, float(value), None)
+            for key, value in given.items()
+        ]
+        definition = model.createIfcElementQuantity(
+            _guid(), None, name, None, "BaseQuantities", quantities
+        )
     else:
-        api.pset.edit_pset(model, pset=api.pset.add_pset(model, product=product, name=name),
-                           properties=values)  # fmt: skip
+        properties = [
+            model.createIfcPropertySingleValue(key, None, _single_value(model, value), None)
+            for key, value in given.items()
+        ]
+        definition = model.createIfcPropertySet(_guid(), None, name, None, properties)
+    model.createIfcRelDefinesByProperties(_guid(), None, None, None, [product], definition)
+
+
+def _single_value(model, value):
+    """A property's nominal value: IfcLabel for text, IfcBoolean, IfcInteger, IfcReal."""
+    if isinstance(value, str):
+        return model.create_entity("IfcLabel", value)
+    if isinstance(value, (bool, np.bool_)):
+        return model.create_entity("IfcBoolean", bool(value))
+    if isinstance(value, (int, np.integer)):
+        return model.create_entity("IfcInteger", int(value))
+    return model.create_entity("IfcReal", float(value))
 
 
 def _fasteners(model, body, source: DocSource, bolts: Bolts, placement) -> list:
