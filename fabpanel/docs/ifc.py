@@ -328,10 +328,12 @@ def _fasteners(model, body, source: DocSource, bolts: Bolts, placement) -> list:
 
     api = ifcopenshell.api
     made = []
+    # one bolt set per hole size (each is worked out from the job's build-up)
+    sets = {float(hole): bolt_set(source, float(hole)) for hole in np.unique(bolts.diameters)}
     for index, (centre, axis, hole, ribs) in enumerate(
         zip(bolts.centres, bolts.axes, bolts.diameters, bolts.ribs), start=1
     ):
-        found = bolt_set(source, float(hole))
+        found = sets[float(hole)]
         if found is None:
             continue
         bolt = api.root.create_entity(
