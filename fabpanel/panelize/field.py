@@ -257,17 +257,20 @@ def _fitted_layout(
     """gmsh's quads of the outline ``mesher`` placed on the surface (the better of two
     topology settings where the first fails, ``TOPOLOGIES``), and the domain whose size field
     made it; while a panel misses the plate, made again with smaller panels (module
-    docstring, step 4): near those that miss first, and where that layout fails a gate (of
-    at most ``SECOND_LAYOUT_UP_TO_PANELS`` panels), everywhere as well, the better kept.
+    docstring, step 4): near those that miss first, and where that layout still misses the
+    plate, or fails a gate on at most ``SECOND_LAYOUT_UP_TO_PANELS`` panels, everywhere as
+    well, the better kept.
     Raises :class:`.punch.PunchFailed` where the first mesh has a small opening no quad can
     be punched for."""
     min_width = min_panel_width(job)
     near, rounds = _plate_rounds(surface, mesher, domain, job, everywhere=False)
     placed = near[0]
-    if (
-        rounds == 0
-        or len(placed.mesh.quads) > SECOND_LAYOUT_UP_TO_PANELS
-        or (placed.fits and meets_every_gate(placed.measures, min_width, True))
+    if rounds == 0 or (
+        placed.fits
+        and (
+            len(placed.mesh.quads) > SECOND_LAYOUT_UP_TO_PANELS
+            or meets_every_gate(placed.measures, min_width, True)
+        )
     ):
         return near
     try:
