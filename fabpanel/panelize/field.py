@@ -322,28 +322,31 @@ def _plate_rounds(
         fitted += [(layout, domain) for layout in placed if layout.fits]
         if everywhere:
             size *= PLATE_SHRINK
-        else:
-            domain = _smaller_near_misses(domain, chosen, job)
+            continue
+        smaller = _smaller_near_misses(domain, chosen, job)
+        if smaller is None:
+            break  # no panel misses once placed (a finer mesh fitted): nothing to make smaller
+        domain = smaller
     assert best is not None
     kept = max([best, *fitted], key=lambda f: (f[0].fits, layout_score(f[0].measures, min_width)))
     return kept, rounds
 
 
-def _smaller_near_misses(domain: Domain, placed: _Placed, job: Job) -> Domain:
+def _smaller_near_misses(domain: Domain, placed: _Placed, job: Job) -> Domain | None:
     """``domain`` with its size field ``PLATE_SHRINK`` x smaller near the panels of ``placed``
     that miss the plate (within ``NEAR_MISS[0]`` panel sizes of a missing panel's centre,
     blending to unchanged at ``NEAR_MISS[1]``), where it was the same everywhere: one
     oversize panel at a tip of seed 63 of ``benchmarks/random_shapes.py`` made its 35 m² 53
     panels, not 42. The size field is the panel size x ``domain.scale``, the flat length per
     surface length, for gmsh and for the smoothing alike: a smaller scale asks for smaller
-    panels there. Where the placed vertices show no panel off the plate (the miss was
-    measured before the last smoothing), smaller everywhere."""
+    panels there. None where no panel of ``placed`` misses the plate (it fitted with a finer
+    mesh of gmsh's, or its miss was measured before the last smoothing)."""
     from scipy.spatial import cKDTree
 
     mesh = placed.mesh
     missing = oversize_panels(placed.vertices, mesh.quads, job)
     if not missing.any():
-        return replace(domain, scale=domain.scale * PLATE_SHRINK)
+        return None
     centres = mesh.nodes[mesh.quads[missing]].mean(axis=1)
     flat = domain.flat_mesh.flat
     # surface distance in panel sizes: flat distance over the flattening's own scale
