@@ -515,9 +515,8 @@ class GlobalOptimiser:
         # from it is the closeness term's)
         held = self.held
         if len(held) and self.weights["layout_hold"] > 0:
-            slide = np.einsum("nab,nb->na", self.held_tangent, x[held] - self.start_points[held])
             system.add(
-                slide.ravel(),
+                self._slides(x).ravel(),
                 [
                     (
                         np.broadcast_to(xcol(held)[:, None, :], self.held_tangent.shape),
@@ -707,13 +706,17 @@ class GlobalOptimiser:
         cells = n / np.linalg.norm(n, axis=-1, keepdims=True)
         return samples, normals, np.concatenate([h, d[:, None]], axis=1), ribs, cells
 
+    def _slides(self, x: np.ndarray) -> np.ndarray:
+        """(h, 3) the held vertices' moves from the start in the design's tangent planes
+        there (units of L)."""
+        return np.einsum(
+            "nab,nb->na", self.held_tangent, x[self.held] - self.start_points[self.held]
+        )
+
     def corner_slides(self) -> np.ndarray:
         """How far each inner vertex of the layout (a panel corner) has slid along the design
         surface (in its tangent plane at the start), mm."""
-        x = self.unpack(self.z)[0]
-        moved = x[self.held] - self.start_points[self.held]
-        slide = np.einsum("nab,nb->na", self.held_tangent, moved)
-        return np.linalg.norm(slide, axis=1) * self.scale
+        return np.linalg.norm(self._slides(self.unpack(self.z)[0]), axis=1) * self.scale
 
 
 def shared_side_normals(layout: PanelLayout, normals: np.ndarray) -> np.ndarray:
