@@ -321,7 +321,7 @@ class DevelopSection(_Section):
     rib_planarity: float = Field(default=10.0, ge=0, le=100)
     #: global: weight that holds the layout's inner vertices (the panel corners) where the
     #: layout put them along the surface. The other terms only see the samples' distance from
-    #: the surface, so without it corners slide along it at no cost, by up to 390 mm on a
+    #: the surface, so without it corners slide along it at no cost, by up to 379 mm on a
     #: doubly curved 9 x 6 m shell at 1.2 m, and the panels are no longer those the layout
     #: gates measured and sized to the plate (0: free, as before)
     layout_hold: float = Field(default=1.0, ge=0, le=100)
