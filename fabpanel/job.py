@@ -313,7 +313,7 @@ class DevelopSection(_Section):
     #: unevenly from sample to sample on doubly curved shapes, and the bicubic between them is
     #: far less developable than the samples (a 12 m dome meshed at 0.2 m, 1.2 m panels: 164 of
     #: 166 panels over the strain tolerance at 0.1, none at 1 with a mesh's reference smoothed,
-    #: see :func:`fabpanel.develop.optimise.design_second_differences`); well above 1 the
+    #: see :func:`fabpanel.develop.sample_grid.design_second_differences`); well above 1 the
     #: design's double curvature wins back
     fairness: float = Field(default=1.0, ge=0, le=100)
     #: global: weight of rib planarity (side samples in one plane per side, the normals along it

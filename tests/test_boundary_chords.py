@@ -19,10 +19,10 @@ from scipy.spatial import Delaunay
 from fabpanel import Job, build, panelize
 from fabpanel.data import PanelLayout, Surface
 from fabpanel.develop import develop
-from fabpanel.develop.optimise import side_index
 from fabpanel.develop.project import sample_panels
-from fabpanel.panelize.boundary import boundary_deviation
+from fabpanel.geom.quads import side_index
 from fabpanel.surface import SurfaceQuery
+from fabpanel.surface.design_boundary import boundary_deviation
 
 HALF, HOLE, RIM = 1500.0, 450.0, 96
 SAGITTA = HOLE * (1 - np.cos(np.pi / 4))  # 131.8 mm

@@ -19,7 +19,6 @@ import fabpanel as fp
 from fabpanel.data import PanelLayout, Surface
 from fabpanel.develop.project import sample_panels
 from fabpanel.geom.conformal import conformal_flattening
-from fabpanel.panelize.boundary import DesignBoundary, boundary_deviation, smooth_loop
 from fabpanel.panelize.gates import (
     failed_gates,
     gate_issues,
@@ -31,6 +30,7 @@ from fabpanel.panelize.gates import (
 from fabpanel.panelize.quality import corner_angles
 from fabpanel.pipeline import _layout_verdict
 from fabpanel.surface import SurfaceQuery
+from fabpanel.surface.design_boundary import DesignBoundary, boundary_deviation, smooth_loop
 
 
 def _annulus(outer: float, inner: float, spacing: float, rim: int, z=None) -> Surface:

@@ -11,11 +11,11 @@ import pytest
 from scipy.spatial import Delaunay
 
 from fabpanel.data import Surface
-from fabpanel.panelize.boundary import DesignBoundary
 from fabpanel.panelize.gates import CORNER_GOOD, CORNER_LIMITS, EDGE_BAND, MIN_EDGE
 from fabpanel.panelize.polish import PolishLimits, polish_layout
 from fabpanel.panelize.quality import corner_angles, vertex_valences
 from fabpanel.surface import SurfaceQuery
+from fabpanel.surface.design_boundary import DesignBoundary
 
 SIZE = 1000.0
 RADIUS = 6000.0  # the cylinder the patch lies on, mm

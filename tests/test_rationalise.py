@@ -12,8 +12,9 @@ from conftest import sphere_cap as _cap
 from fabpanel import Job, load_surface, panelize
 from fabpanel.develop import develop
 from fabpanel.develop.loft import ruled_grids
-from fabpanel.develop.optimise import GlobalOptimiser, grid_normals, sample_mesh
+from fabpanel.develop.optimise import GlobalOptimiser
 from fabpanel.develop.project import sample_panels
+from fabpanel.develop.sample_grid import grid_normals, sample_mesh
 from fabpanel.develop.sides import across_sides
 from fabpanel.surface import SurfaceQuery
 

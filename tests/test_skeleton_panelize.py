@@ -12,9 +12,9 @@ from fabpanel import Job
 from fabpanel.errors import InputError
 from fabpanel.geom.polygon import closest_on_polylines
 from fabpanel.panelize import choose_method, panelize
-from fabpanel.panelize.boundary import DesignBoundary
 from fabpanel.panelize.quality import corner_angles, vertex_valences
 from fabpanel.surface import SurfaceQuery, load_surface
+from fabpanel.surface.design_boundary import DesignBoundary
 
 #: coarse example meshes (fast) and the panel size used on them
 CASES = {

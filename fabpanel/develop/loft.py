@@ -38,8 +38,8 @@ def develop_loft(
     layout: PanelLayout, surface: Surface, job: Job, query: SurfaceQuery
 ) -> DevelopedPanels:
     """Ruled panels between the closer pair of opposite sides; see the module docstring."""
-    from .optimise import grid_normals
     from .project import developed_panels, sample_panels
+    from .sample_grid import grid_normals
 
     sampled = sample_panels(layout, query, job.develop.samples)
     design, design_normals = sampled.samples, sampled.normals

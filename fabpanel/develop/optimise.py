@@ -18,8 +18,8 @@ Residuals, every one at most quadratic in the unknowns (so the Jacobian is exact
 ======================  ====================================================  ===============
 term                    residual                                              weight (job)
 ======================  ====================================================  ===============
-normal consistency      ``n . (x[i+1] - x[i-1]) / |.|`` along both grid lines  ``NORMAL_WEIGHT``
-unit vectors            ``|n|^2 - 1``, ``|h|^2 - 1``, ``|g|^2 - 1``            ``NORMAL_WEIGHT``
+normal consistency      ``n . (x[i+1] - x[i-1]) / |.|`` along both grid lines  ``residuals.NORMAL_WEIGHT``
+unit vectors            ``|n|^2 - 1``, ``|h|^2 - 1``, ``|g|^2 - 1``            ``residuals.NORMAL_WEIGHT``
 developability          ``n . h - d``                                         1 (reference)
 intrinsic flatness      ``2 pi -`` angle sum at interior samples, both grid     ``DEFECT_WEIGHT``
                         triangulations
@@ -54,7 +54,6 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -64,28 +63,27 @@ from ..buildup import Buildup
 from ..data import PanelLayout
 from ..errors import SolverError
 from ..geom.fitting import bestfit_planes
+from ..geom.quads import side_index
 from ..surface import SurfaceQuery
+from .residuals import (
+    ResidualSystem,
+    Unknowns,
+    angle_defects,
+    developability,
+    fairness,
+    normal_consistency,
+    rib_normals,
+    rib_planes,
+    square_ribs,
+    unit_rib_plane_normals,
+)
+from .sample_grid import design_second_differences, grid_normals, sample_mesh
 
 log = logging.getLogger(__name__)
 
-#: share of the rib weight for the normals along a side at one angle to its rib plane: that
-#: makes the side a planar curvature line (Joachimsthal), which a layout not drawn along
-#: curvature lines can only approach. Measured on the sphere cap test (16 panels, R 5 m): 0.1
-#: folds panels over (kinks of 160 degrees) to force it, 0.01 keeps the strain at 0.02 % and
-#: the sides within 0.07 mm of their planes
-RIB_NORMAL_SHARE = 0.01
 #: weight of the angle defects (radians) at the interior samples of every panel: a defect of
 #: 1e-4 rad is what a 1 m panel of a 20 m sphere carries; this makes it count like a 1 mm rib step
 DEFECT_WEIGHT = 30.0
-#: share of the rib weight for square ribs (bevel 0): without it the bevel is free, so where a
-#: side is nearly straight its plane tips about it at no cost, and the rib planes of a vertex
-#: no longer share one axis (see fabpanel.model.nodes). On a domed plate round a round opening
-#: (tests/test_boundary_chords.py) the interior ribs leaned 6.8 degrees, now 0.1; on the
-#: examples it changes strain and deviation by under 1 % (0.1 cost the plate 2.5x its mean
-#: deviation)
-SQUARE_RIB_SHARE = 0.01
-#: normals must be normals: this weight makes the consistency terms nearly hard constraints
-NORMAL_WEIGHT = 10.0
 #: samples on the design boundary (supports, free edges) stay there
 BOUNDARY_WEIGHT = 1000.0
 #: the design surface's foot points are recomputed once a sample has moved this far (share of
@@ -104,163 +102,6 @@ LSMR_TOLERANCE, LSMR_ITERATIONS = 1e-4, 300
 TAIL_RATE = 1e-2
 #: LM damping: start, and the factors applied after a rejected / accepted step
 DAMPING_START, DAMPING_UP, DAMPING_DOWN = 1e-3, 8.0, 3.0
-
-
-@dataclass(frozen=True)
-class SampleMesh:
-    """All panel samples as one mesh: ``ids[p, i, j]`` is the point of panel p's sample (i, j).
-
-    ids : (m, k, k) int; points : (P, 3) float mm; boundary : (P,) bool, on the design boundary;
-    side_edge : (m, 4) int, the layout edge (rib) of every panel side (``PanelLayout.edges`` row);
-    edge_ids : (e, k) int, the samples of every layout edge from its lower to its higher vertex.
-    """
-
-    ids: np.ndarray
-    points: np.ndarray
-    boundary: np.ndarray
-    side_edge: np.ndarray
-    edge_ids: np.ndarray
-
-
-def side_index(k: int, side: int) -> tuple[np.ndarray, np.ndarray]:
-    """Grid indices (i, j) of one side, from corner ``side`` to corner ``side + 1``."""
-    r, last = np.arange(k), np.full(k, k - 1)
-    first = np.zeros(k, dtype=int)
-    return [(r, first), (last, r), (r[::-1], last), (first, r[::-1])][side]
-
-
-def sample_mesh(layout: PanelLayout, samples: np.ndarray) -> SampleMesh:
-    """Shared sample ids by topology (layout vertices and edges), never by coordinates."""
-    quads = layout.quads
-    m, k = samples.shape[:2]
-    nv = len(layout.vertices)
-    edges = layout.edges
-    inner = k - 2
-    ids = np.empty((m, k, k), dtype=np.int64)
-    ids[:, 1:-1, 1:-1] = (
-        nv + len(edges) * inner + np.arange(m * inner * inner).reshape(m, inner, inner)
-    )
-    side_edge = layout.side_edges
-    edge_inner = nv + np.arange(len(edges) * inner).reshape(len(edges), inner)
-    for side in range(4):
-        a, b = quads[:, side], quads[:, (side + 1) % 4]
-        edge = side_edge[:, side]
-        along = edge_inner[edge]  # (m, inner), low -> high
-        along = np.where((a < b)[:, None], along, along[:, ::-1])
-        i, j = side_index(k, side)
-        ids[:, i[1:-1], j[1:-1]] = along
-        ids[:, i[0], j[0]] = a
-    edge_ids = np.concatenate([edges[:, :1], edge_inner, edges[:, 1:]], axis=1)
-    count = nv + len(edges) * inner + m * inner * inner
-    points = np.zeros((count, 3))
-    points[ids.reshape(-1)] = samples.reshape(-1, 3)
-    faces_per_edge = np.bincount(side_edge.ravel(), minlength=len(edges))
-    boundary = np.zeros(count, dtype=bool)
-    boundary[edge_ids[faces_per_edge == 1].ravel()] = True
-    return SampleMesh(ids, points, boundary, side_edge, edge_ids)
-
-
-class _System:
-    """Residual blocks and their sparse Jacobian, assembled from vectorised pieces; with
-    ``jacobian=False`` the residuals only (the energy of a trial step needs no more)."""
-
-    def __init__(self, jacobian: bool = True) -> None:
-        self.residuals: list[np.ndarray] = []
-        self.rows: list[np.ndarray] = []
-        self.cols: list[np.ndarray] = []
-        self.vals: list[np.ndarray] = []
-        self.count = 0
-        self.jacobian = jacobian
-
-    def add(
-        self, residual: np.ndarray, terms: list[tuple[np.ndarray, np.ndarray]], weight: float
-    ) -> None:
-        """residual (r,); terms: (columns (r, c), values (r, c)) pairs of Jacobian entries."""
-        r = len(residual)
-        rows = self.count + np.arange(r)
-        self.residuals.append(weight * residual)
-        self.count += r
-        if not self.jacobian:
-            return
-        for columns, values in terms:
-            columns = columns.reshape(r, -1)
-            values = values.reshape(r, -1)
-            self.rows.append(np.repeat(rows, columns.shape[1]))
-            self.cols.append(columns.ravel())
-            self.vals.append(weight * values.ravel())
-
-    def add_summed(
-        self,
-        residual: np.ndarray,
-        rows: np.ndarray,
-        columns: np.ndarray,
-        values: np.ndarray,
-        weight: float,
-    ) -> None:
-        """residual (r,) whose Jacobian entries come as (row in 0..r, column, value) triplets
-        (repeated entries add up)."""
-        self.residuals.append(weight * residual)
-        if not self.jacobian:
-            self.count += len(residual)
-            return
-        self.rows.append(self.count + rows)
-        self.cols.append(columns)
-        self.vals.append(weight * values)
-        self.count += len(residual)
-
-    def matrices(self, size: int) -> tuple[np.ndarray, sp.csr_matrix]:
-        residual = np.concatenate(self.residuals)
-        jacobian = sp.csr_matrix(
-            (np.concatenate(self.vals), (np.concatenate(self.rows), np.concatenate(self.cols))),
-            shape=(self.count, size),
-        )
-        return residual, jacobian
-
-
-def _tangent_stencil(k: int) -> tuple[np.ndarray, np.ndarray]:
-    """Indices (k, 3) and weights (k, 3) of a second-order first difference along a grid line:
-    central inside, the three-point one-sided rule at both ends (exact for quadratics, so the
-    samples of a circle arc already satisfy ``n . tangent = 0`` everywhere)."""
-    idx = np.arange(k)
-    index = np.stack([np.maximum(idx - 1, 0), idx, np.minimum(idx + 1, k - 1)], axis=1)
-    weight = np.tile([-1.0, 0.0, 1.0], (k, 1))
-    index[0], weight[0] = [0, 1, 2], [-3.0, 4.0, -1.0]
-    index[-1], weight[-1] = [k - 3, k - 2, k - 1], [1.0, -4.0, 3.0]
-    return index, weight
-
-
-def grid_normals(samples: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """(m, k, k, 3) unit normals of sample grids from second-order differences along both grid
-    lines, turned to agree with ``reference`` normals (any (m, a, b, 3) on the same side)."""
-    index, weight = _tangent_stencil(samples.shape[1])
-    along_i = np.einsum("is,misjc->mijc", weight, samples[:, index])
-    along_j = np.einsum("js,mijsc->mijc", weight, samples[:, :, index])
-    normals = np.cross(along_i, along_j)
-    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
-    side = np.sign(np.einsum("mijc,mc->m", normals, reference.reshape(len(samples), -1, 3).sum(1)))
-    return normals * np.where(side == 0, 1.0, side)[:, None, None, None]
-
-
-def design_second_differences(grids: np.ndarray, faceted: bool) -> tuple[np.ndarray, np.ndarray]:
-    """The fairness term's reference: the second differences along both grid directions,
-    ``(m, k - 2, k, 3)`` and ``(m, k, k - 2, 3)``, of each panel's design grid
-    ``grids (m, k, k, 3)``. A ``faceted`` design (a mesh) is first smoothed to one bicubic per
-    panel (least squares): its samples' own second differences carry the facets (a 96-gon vault
-    sampled every 150 mm: 0.5 mm in 5.6), and a fairness strong enough to keep the grid lines
-    even would keep the facets too, which leaves the bicubic sheets through the samples far
-    less developable than the samples (a 12 m dome at 1.2 m: 46 of 166 panels over the strain
-    tolerance against none). An exact design keeps its own: one cubic cannot follow a 45°
-    arc closely enough to keep a cylinder exact."""
-    raw = grids
-    if faceted:
-        k = grids.shape[1]
-        basis = np.polynomial.legendre.legvander(np.linspace(-1.0, 1.0, k), min(3, k - 1))
-        smoothing = basis @ np.linalg.pinv(basis)  # (k, k): least-squares projection on cubics
-        raw = np.einsum("ia,mabd,jb->mijd", smoothing, grids, smoothing)
-    return (
-        raw[:, :-2] - 2 * raw[:, 1:-1] + raw[:, 2:],
-        raw[:, :, :-2] - 2 * raw[:, :, 1:-1] + raw[:, :, 2:],
-    )
 
 
 class GlobalOptimiser:
@@ -311,16 +152,8 @@ class GlobalOptimiser:
         interior[1:-1, 1:-1] = np.arange((k - 2) ** 2).reshape(k - 2, k - 2)
         self._interior_row = interior.ravel()
         self.depth = depth
-        n_points = len(self.mesh.points)
-        n_edges = len(self.mesh.edge_ids)
-        # unknown layout: x (3P) | n (3 m k k) | h (3m) | d (m) | g (3E) | c (E) | s (4m)
-        self.off_n = 3 * n_points
-        self.off_h = self.off_n + 3 * m * (k - 1) ** 2
-        self.off_d = self.off_h + 3 * m
-        self.off_g = self.off_d + m
-        self.off_c = self.off_g + 3 * n_edges
-        self.off_s = self.off_c + n_edges
-        self.size = self.off_s + 4 * m
+        self.unknowns = Unknowns(m, k, len(self.mesh.points), len(self.mesh.edge_ids))
+        self.off_n, self.size = self.unknowns.off_n, self.unknowns.size
         self.start_points = self.mesh.points / self.scale
         self.design_second_differences = design_second_differences(
             self.start_points[self.mesh.ids], faceted=not query.exact
@@ -368,15 +201,7 @@ class GlobalOptimiser:
         return np.concatenate([x.ravel(), n.ravel(), h.ravel(), d, g.ravel(), c, np.zeros(4 * m)])
 
     def unpack(self, z: np.ndarray):
-        m, k = self.m, self.k
-        x = z[: self.off_n].reshape(-1, 3)
-        n = z[self.off_n : self.off_h].reshape(m, k - 1, k - 1, 3)
-        h = z[self.off_h : self.off_d].reshape(m, 3)
-        d = z[self.off_d : self.off_g]
-        g = z[self.off_g : self.off_c].reshape(-1, 3)
-        c = z[self.off_c : self.off_s]
-        s = z[self.off_s :].reshape(m, 4)
-        return x, n, h, d, g, c, s
+        return self.unknowns.unpack(z)
 
     # -- residuals ----------------------------------------------------------------------------
     def _foot_points(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -385,136 +210,31 @@ class GlobalOptimiser:
 
     def system(
         self, z: np.ndarray, foot: np.ndarray, foot_normal: np.ndarray, jacobian: bool = True
-    ) -> _System:
-        m, k = self.m, self.k
+    ) -> ResidualSystem:
+        """Every residual block of the module docstring's table at ``z``, closeness
+        linearised at the design's ``foot`` points and normals."""
         x, n, h, d, g, offsets, bevel = self.unpack(z)
-        ids = self.mesh.ids
-        system = _System(jacobian)
-        xcol = lambda pid: 3 * pid[..., None] + np.arange(3)
-        ncol = (self.off_n + np.arange(3 * m * k * k)).reshape(m, k, k, 3)
-        # normal consistency: every cell normal is perpendicular to both cell diagonals (all
-        # four corners take part, so no odd-even zig-zag of the samples goes unseen)
-        c = k - 1
-        ncol = (self.off_n + np.arange(3 * m * c * c)).reshape(m, c, c, 3)
-        for start, end in ((ids[:, :-1, :-1], ids[:, 1:, 1:]), (ids[:, :-1, 1:], ids[:, 1:, :-1])):
-            diagonal = x[end] - x[start]  # (m, c, c, 3)
-            length = np.linalg.norm(diagonal, axis=-1, keepdims=True)
-            residual = (n * diagonal).sum(-1, keepdims=True) / length
-            # d/d diagonal of n . d / |d| = (n - r d/|d|) / |d|
-            d_diag = (n - residual * diagonal / length) / length
-            system.add(
-                residual.ravel(),
-                [(ncol, diagonal / length), (xcol(end), d_diag), (xcol(start), -d_diag)],
-                NORMAL_WEIGHT,
-            )
-        system.add(((n * n).sum(-1) - 1.0).ravel(), [(ncol, 2 * n)], NORMAL_WEIGHT)
-        # developability: the cell normals of panel p on one plane n . h_p = d_p
-        hcol = (self.off_h + np.arange(3 * m)).reshape(m, 3)
-        h_b = np.broadcast_to(h[:, None, None, :], n.shape)
-        system.add(
-            ((n * h_b).sum(-1) - d[:, None, None]).ravel(),
-            [
-                (ncol, h_b),
-                (np.broadcast_to(hcol[:, None, None, :], n.shape), n),
-                (
-                    np.broadcast_to((self.off_d + np.arange(m))[:, None, None], (m, c, c)),
-                    -np.ones((m, c, c)),
-                ),
-            ],
-            1.0,
-        )
-        system.add((h * h).sum(-1) - 1.0, [(hcol, 2 * h)], NORMAL_WEIGHT)
-        self._angle_defects(system, x)
-        # rib planes: side samples in the plane, both panels' normals along the side in it
-        edge_ids = self.mesh.edge_ids  # (E, k)
-        gcol = (self.off_g + np.arange(g.size)).reshape(-1, 3)
-        ccol = self.off_c + np.arange(len(offsets))
-        g_b = np.broadcast_to(g[:, None, :], (len(g), k, 3))
-        system.add(
-            ((x[edge_ids] * g_b).sum(-1) - offsets[:, None]).ravel(),
-            [
-                (xcol(edge_ids), g_b),
-                (np.broadcast_to(gcol[:, None, :], g_b.shape), x[edge_ids]),
-                (np.broadcast_to(ccol[:, None], edge_ids.shape), -np.ones(edge_ids.shape)),
-            ],
-            self.weights["rib"],
-        )
-        # ... and the surface normals along the side at one constant angle to it,
-        # g . (t_i x t_j) / |.| = s (the sine of the side's bevel, an unknown per panel side),
-        # with the second-order tangents of the grid (the normals the sheets are built with).
-        # By Joachimsthal's theorem a planar curve on a surface is a curvature line exactly when
-        # the surface meets its plane at a constant angle: the parallels of a cone or of any
-        # surface of revolution satisfy it with s != 0, so it holds wherever it can. Then the
-        # rib is one flat plate cut with one bevel, and the offset (bottom sheet) edge lies in a
-        # parallel plane. Not at the panel corners: there two rib planes would each have to
-        # hold the normal (a torsion-free node), which the solver can only meet by folding the
-        # corner; the ribs are trimmed against each other there anyway
-        index, weight = _tangent_stencil(k)
-        for side in range(4):
-            i, j = (a[1:-1] for a in side_index(k, side))
-            edge = self.mesh.side_edge[:, side]
-            ids_i = ids[:, index[i], j[:, None]]  # (m, k, 3)
-            ids_j = ids[:, i[:, None], index[j]]
-            t_i = np.einsum("ks,mksc->mkc", weight[i], x[ids_i])
-            t_j = np.einsum("ks,mksc->mkc", weight[j], x[ids_j])
-            normal = np.cross(t_i, t_j)
-            size = np.linalg.norm(normal, axis=-1, keepdims=True)
-            g_s = np.broadcast_to(g[edge][:, None, :], normal.shape)
-            sine = (normal * g_s).sum(-1, keepdims=True) / size
-            residual = sine - bevel[:, side, None, None]
-            # r = g . N / |N| - s, N = t_i x t_j: dr/dN = v = (g - (g.N/|N|) N/|N|) / |N|,
-            # dr/dt_i = t_j x v, dr/dt_j = v x t_i
-            v = (g_s - sine * normal / size) / size
-            d_ti = np.cross(t_j, v)
-            d_tj = np.cross(v, t_i)
-            scol = np.broadcast_to((self.off_s + 4 * np.arange(m) + side)[:, None], sine.shape[:2])
-            terms = [
-                (np.broadcast_to(gcol[edge][:, None, :], normal.shape), normal / size),
-                (scol, -np.ones(scol.shape)),
-            ]
-            for t in range(3):
-                terms.append((xcol(ids_i[..., t]), weight[i][None, :, t, None] * d_ti))
-                terms.append((xcol(ids_j[..., t]), weight[j][None, :, t, None] * d_tj))
-            system.add(residual.ravel(), terms, RIB_NORMAL_SHARE * self.weights["rib"])
-        # square ribs where the shape allows: a bevel s moves the rib's bottom edge s x depth
-        # sideways (in units of L); see SQUARE_RIB_SHARE
-        scol = self.off_s + np.arange(4 * m)
-        system.add(
-            bevel.ravel() * self.depth / self.scale,
-            [(scol, np.full(4 * m, self.depth / self.scale))],
-            SQUARE_RIB_SHARE * self.weights["rib"],
-        )
-        system.add((g * g).sum(-1) - 1.0, [(gcol, 2 * g)], NORMAL_WEIGHT)
+        ids, unknowns, weights = self.mesh.ids, self.unknowns, self.weights
+        system = ResidualSystem(jacobian)
+        normal_consistency(system, unknowns, x, n, ids)
+        developability(system, unknowns, n, h, d)
+        angle_defects(system, x, ids, self._triangulations, self._interior_row, weights["defect"])
+        rib_planes(system, unknowns, x, g, offsets, self.mesh.edge_ids, weights["rib"])
+        rib_normals(system, unknowns, x, g, bevel, self.mesh, weights["rib"])
+        square_ribs(system, unknowns, bevel, self.depth, self.scale, weights["rib"])
+        unit_rib_plane_normals(system, unknowns, g)
         # closeness to the design surface, linearised at the foot points
-        points = np.arange(len(x))
+        xcol = unknowns.x_columns
         system.add(
             ((x - foot) * foot_normal).sum(-1),
-            [(xcol(points), foot_normal)],
-            self.weights["closeness"],
+            [(xcol(np.arange(len(x))), foot_normal)],
+            weights["closeness"],
         )
-        # fairness: second differences along both grid directions inside every panel
-        for (a, b, e), reference in zip(
-            (
-                (ids[:, :-2, :], ids[:, 1:-1, :], ids[:, 2:, :]),
-                (ids[:, :, :-2], ids[:, :, 1:-1], ids[:, :, 2:]),
-            ),
-            self.design_second_differences,
-            strict=True,
-        ):
-            # against the design's own second differences: fairness keeps the grid lines
-            # smooth (no zig-zag) without pulling a curved surface flat
-            second = (x[a] - 2 * x[b] + x[e]) - reference
-            for comp in range(3):
-                one = np.ones(a.shape)
-                system.add(
-                    second[..., comp].ravel(),
-                    [(3 * a + comp, one), (3 * b + comp, -2 * one), (3 * e + comp, one)],
-                    self.weights["fairness"],
-                )
+        fairness(system, x, ids, self.design_second_differences, weights["fairness"])
         # the panel corners stay where the layout put them along the surface (their distance
         # from it is the closeness term's)
         held = self.held
-        if len(held) and self.weights["layout_hold"] > 0:
+        if len(held) and weights["layout_hold"] > 0:
             system.add(
                 self._slides(x).ravel(),
                 [
@@ -523,7 +243,7 @@ class GlobalOptimiser:
                         self.held_tangent,
                     )
                 ],
-                self.weights["layout_hold"],
+                weights["layout_hold"],
             )
         # boundary samples stay where they are
         on = np.flatnonzero(self.mesh.boundary)
@@ -533,55 +253,6 @@ class GlobalOptimiser:
                 moved.ravel(), [(xcol(on).reshape(-1), np.ones(3 * len(on)))], BOUNDARY_WEIGHT
             )
         return system
-
-    def _angle_defects(self, system: _System, x: np.ndarray) -> None:
-        """Intrinsic flatness: the angles around every interior sample of a panel's grid sum to
-        2 pi, in both triangulations of the grid (the unroll strain measures both diagonals)."""
-        for tris in self._triangulations:
-            self._angle_defects_of(system, x, tris)
-
-    def _angle_defects_of(self, system: _System, x: np.ndarray, tris: np.ndarray) -> None:
-        m, k = self.m, self.k
-        corners = self.mesh.ids.reshape(m, k * k)[:, tris]  # (m, t, 3)
-        rows_local = self._interior_row[tris]  # (t, 3), -1 outside
-        count = m * (k - 2) ** 2
-        angle_sum = np.zeros(count)
-        rows, cols, vals = [], [], []
-        panel_offset = (np.arange(m) * (k - 2) ** 2)[:, None]
-        for corner in range(3):
-            inside = rows_local[:, corner] >= 0  # only angles at interior samples count
-            a = corners[:, inside, corner]
-            b = corners[:, inside, (corner + 1) % 3]
-            c = corners[:, inside, (corner + 2) % 3]
-            u, v = x[b] - x[a], x[c] - x[a]
-            theta = np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), (u * v).sum(-1))
-            r = (panel_offset + rows_local[inside, corner][None, :]).ravel()  # (m t_in,)
-            angle_sum += np.bincount(r, weights=theta.ravel(), minlength=count)
-            if not system.jacobian:
-                continue
-            lu = np.linalg.norm(u, axis=-1, keepdims=True)
-            lv = np.linalg.norm(v, axis=-1, keepdims=True)
-            # d theta / d b = -(unit vector in the plane, perpendicular to u, towards v) / |u|
-            uh, vh = u / lu, v / lv
-            wb = vh - (vh * uh).sum(-1, keepdims=True) * uh
-            wc = uh - (uh * vh).sum(-1, keepdims=True) * vh
-            wb /= np.linalg.norm(wb, axis=-1, keepdims=True)
-            wc /= np.linalg.norm(wc, axis=-1, keepdims=True)
-            d_b, d_c = -wb / lu, -wc / lv
-            d_a = -(d_b + d_c)
-            for point, grad in ((a, d_a), (b, d_b), (c, d_c)):
-                # the residual is 2 pi - sum: its derivative is minus the angle's
-                rows.append(np.repeat(r, 3))
-                cols.append((3 * point[..., None] + np.arange(3)).ravel())
-                vals.append(-grad.reshape(-1))
-        empty = np.zeros(0, dtype=np.int64)
-        system.add_summed(
-            2 * np.pi - angle_sum,
-            np.concatenate(rows) if rows else empty,
-            np.concatenate(cols) if cols else empty,
-            np.concatenate(vals) if vals else np.zeros(0),
-            self.weights["defect"],
-        )
 
     def energy(self, z: np.ndarray, foot: np.ndarray, foot_normal: np.ndarray) -> float:
         residual = np.concatenate(self.system(z, foot, foot_normal, jacobian=False).residuals)

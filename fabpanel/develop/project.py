@@ -15,10 +15,10 @@ import numpy as np
 
 from ..data import DevelopedPanels, PanelLayout, Surface
 from ..errors import Issue
-from ..geom.quads import bilinear_grid, coons_patch, resample_polylines
+from ..geom.quads import bilinear_grid, coons_patch, resample_polylines, side_index
 from ..job import Job
-from ..panelize.boundary import boundary_deviation
 from ..surface import SurfaceQuery
+from ..surface.design_boundary import boundary_deviation
 from ..tolerances import TOLERANCES
 from .measure import classify_and_measure
 from .sides import side_planes
@@ -223,7 +223,7 @@ def _boundary_stretches(
     """The design boundary (k points) between the corners of every boundary side whose two
     corners lie on it, keyed by the side's index into ``edges``; not where the boundary runs
     much longer than the side (the side cuts across a notch)."""
-    from ..panelize.boundary import DesignBoundary
+    from ..surface.design_boundary import DesignBoundary
 
     if not query.surface.boundary_loops:
         return {}
@@ -318,13 +318,6 @@ def _pin_corners(
     return samples, normals
 
 
-def _side_index(k: int, side: int) -> tuple[np.ndarray, np.ndarray]:
-    """Grid indices (i, j) of one side, from corner ``side`` to corner ``side + 1``."""
-    r, last = np.arange(k), np.full(k, k - 1)
-    first = np.zeros(k, dtype=int)
-    return [(r, first), (last, r), (r[::-1], last), (first, r[::-1])][side]
-
-
 def _share_sides(
     layout: PanelLayout, samples: np.ndarray, normals: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -342,7 +335,7 @@ def _share_sides(
         other_side = int(
             np.flatnonzero((layout.quads[other] == b) & (np.roll(layout.quads[other], -1) == a))[0]
         )
-        src, dst = _side_index(k, side), _side_index(k, other_side)
+        src, dst = side_index(k, side), side_index(k, other_side)
         # the neighbour runs the shared side the other way round
         samples[other][dst[0], dst[1]] = samples[panel][src[0], src[1]][::-1]
         normals[other][dst[0], dst[1]] = normals[panel][src[0], src[1]][::-1]

@@ -21,6 +21,14 @@ def bilinear_grid(corners: np.ndarray, k: int) -> np.ndarray:
     return (1 - a) * (1 - b) * c0 + a * (1 - b) * c1 + a * b * c2 + (1 - a) * b * c3
 
 
+def side_index(k: int, side: int) -> tuple[np.ndarray, np.ndarray]:
+    """Indices (i, j) into a k x k panel grid (:func:`bilinear_grid`'s convention) of side
+    ``side``, from corner ``side`` to corner ``side + 1``."""
+    r, last = np.arange(k), np.full(k, k - 1)
+    first = np.zeros(k, dtype=int)
+    return [(r, first), (last, r), (r[::-1], last), (first, r[::-1])][side]
+
+
 def circumradii(points: np.ndarray) -> np.ndarray:
     """Radius of the circle through each consecutive point triple along axis -2.
 

@@ -32,8 +32,8 @@ from ..data import PanelLayout, Surface
 from ..errors import GeometryError, Issue
 from ..job import Job
 from ..surface import SurfaceQuery
+from ..surface.design_boundary import DesignBoundary
 from ..units import length_scale
-from .boundary import DesignBoundary
 from .estimate import check_panel_count
 from .gates import (
     failed_gates,

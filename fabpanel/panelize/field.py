@@ -41,8 +41,8 @@ from ..errors import GeometryError, Issue
 from ..geom.conformal import conformal_flattening
 from ..job import Job
 from ..surface import SurfaceQuery
+from ..surface.design_boundary import DesignBoundary
 from ..units import length_scale
-from .boundary import DesignBoundary
 from .corners import ROUNDING_TURN, OutlineCorners, outline_corners, small_openings
 from .decompose import oversize_panels
 from .densify import Strip, quad_edges

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..job import Job
 from ..surface import SurfaceQuery
-from .boundary import DesignBoundary
+from ..surface.design_boundary import DesignBoundary
 from .decompose import oversize_panels
 from .false_corners import dissolve_corners, one_panel_nodes
 from .gate_band import band_measures

@@ -32,7 +32,7 @@ import numpy as np
 from ..data import PanelLayout, Surface
 from ..errors import Issue
 from ..job import Job
-from .boundary import DesignBoundary
+from ..surface.design_boundary import DesignBoundary
 from .quality import corner_angles, vertex_valences
 
 #: thresholds (fractions of the panel size, degrees, shares)

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..job import Job
 from ..surface import SurfaceQuery
-from .boundary import DesignBoundary
+from ..surface.design_boundary import DesignBoundary
 from .gates import CORNER_GOOD, CORNER_LIMITS, EDGE_BAND, MIN_EDGE, min_panel_width, panel_widths
 from .quality import corner_angles, panel_extents, vertex_valences
 

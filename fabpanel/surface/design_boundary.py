@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..data import PanelLayout, Surface
+from ..geom.quads import side_index
 
 #: (point, segment) pairs evaluated at once
 _CHUNK_PAIRS = 2_000_000
@@ -183,8 +184,6 @@ def boundary_sides_as_curves(
     interpolated by a cubic spline (chord-length parameters), as the sheets' edges run; and
     (b, 2) int, the panel and side of each."""
     from scipy.interpolate import CubicSpline
-
-    from ..develop.optimise import side_index
 
     k = samples.shape[1]
     neighbours = layout.side_neighbours
