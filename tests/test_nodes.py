@@ -72,8 +72,8 @@ def test_a_node_plane_faces_the_rib_it_cuts():
 def test_panels_meeting_only_at_a_vertex_do_not_overlap_where_the_rib_planes_twist(
     monkeypatch,
 ):
-    optimise = importlib.import_module("fabpanel.develop.optimise")
-    monkeypatch.setattr(optimise, "SQUARE_RIB_SHARE", 0.0)
+    residuals = importlib.import_module("fabpanel.develop.residuals")
+    monkeypatch.setattr(residuals, "SQUARE_RIB_SHARE", 0.0)
     surface, layout = _plate(), _ring_layout()
     job = Job.from_dict(
         {

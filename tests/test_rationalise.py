@@ -10,12 +10,14 @@ from conftest import cone_patch, hypar_patch
 from conftest import sphere_cap as _cap
 
 from fabpanel import Job, load_surface, panelize
+from fabpanel.data import PanelLayout
 from fabpanel.develop import develop
 from fabpanel.develop.loft import ruled_grids
 from fabpanel.develop.optimise import GlobalOptimiser
 from fabpanel.develop.project import sample_panels
 from fabpanel.develop.sample_grid import grid_normals, sample_mesh
-from fabpanel.develop.sides import across_sides
+from fabpanel.develop.sides import across_sides, folded_sides, side_gaps_and_kinks
+from fabpanel.geom.quads import bilinear_grid
 from fabpanel.surface import SurfaceQuery
 
 DEMO = Path(__file__).resolve().parents[1] / "fabpanel" / "examples"  # shipped: fabpanel demo
@@ -273,3 +275,32 @@ def test_the_layout_hold_keeps_the_panel_corners_where_the_layout_put_them(tmp_p
     assert found[1.0]["corner_slide_mm"]["max"] < 5.0  # measured 2.2 mm
     assert found[1.0]["unroll_strain"]["max"] <= 1.05 * found[0.0]["unroll_strain"]["max"]
     assert found[1.0]["deviation_mm"]["mean"] <= found[0.0]["deviation_mm"]["mean"]
+
+
+@pytest.mark.parametrize("fold_deg, folded", [(30.0, False), (89.0, False), (120.0, True)])
+def test_a_panel_folded_onto_its_neighbour_is_an_error(fold_deg, folded):
+    """Two 1 m panels hinged along their common side: the second turned by ``fold_deg``
+    about it. Past 90° the sheets are folded onto each other, an error naming both."""
+    turn = np.radians(fold_deg)
+    far = 1000.0 * np.array([1.0 + np.cos(turn), 0.0, np.sin(turn)])
+    vertices = np.array(
+        [[0, 0, 0], [1000, 0, 0], [1000, 1000, 0], [0, 1000, 0], [*far[:2], 0], [0, 0, 0]],
+        dtype=float,
+    )
+    vertices[4], vertices[5] = far + [0, 1000, 0], far  # the second panel's outer side
+    quads = np.array([[0, 1, 2, 3], [1, 5, 4, 2]])
+    layout = PanelLayout(vertices, quads, ("P001", "P002"), "grid")
+    samples = bilinear_grid(vertices[quads], 5)
+    normals = grid_normals(samples, np.broadcast_to([0.0, 0.0, 1.0], samples.shape))
+    normals[1] = np.cross(
+        samples[1, -1, 0] - samples[1, 0, 0], samples[1, 0, -1] - samples[1, 0, 0]
+    )
+    normals[1] /= np.linalg.norm(normals[1, 0, 0])
+    _, kinks = side_gaps_and_kinks(layout, samples, normals)
+    assert kinks.max() == pytest.approx(fold_deg, abs=1e-6)
+    issues = folded_sides(layout, kinks)
+    assert bool(issues) == folded
+    if folded:
+        assert {i.item for i in issues} == {"P001", "P002"}
+        assert all(i.severity == "error" and i.code == "panel-folded" for i in issues)
+        assert "P002" in issues[0].message and "120°" in issues[0].message

@@ -111,3 +111,30 @@ def test_an_edge_left_untrimmed_is_an_error_when_it_misses_its_rib(lean, severit
     edge = side_curve(face.surface, 0, 33)
     assert np.linalg.norm(edge - point, axis=1).min() < 1.0
     assert (finding[3] if len(finding) > 3 else "warning") == severity
+
+
+def test_a_corner_the_curved_continuation_cannot_reach_is_trimmed_on_the_tangent_planes():
+    """A flat 1 x 1 m face whose parameter slows towards side 1 (x = 1000 (u - 0.45 u²), as
+    a bottom face offset along turning normals bunches its grid): its second-order
+    continuation beyond u = 1 turns back after 5.6 mm, so a rib plane 8 mm beyond the edge
+    is out of its reach. The face continued by its tangent planes reaches it; every edge
+    lies in its plane and the face stays flat (a crown panel's bottom sheet was left
+    untrimmed on two sides, 6.5 and 10.4 mm off its ribs, before)."""
+    u = np.linspace(0.0, 1.0, K)
+    uu, vv = np.meshgrid(u, u, indexing="ij")
+    grid = np.stack([1000.0 * (uu - 0.45 * uu**2), 1000.0 * vv, np.zeros_like(uu)], axis=-1)
+    edge = 1000.0 * (1.0 - 0.45)
+    planes = np.array(
+        [[0.0, 1.0, 0.0, 0.0], [-1.0, 0.0, 0.0, -(edge + 8.0)], [0, -1, 0, -1000], [1, 0, 0, 0]]
+    )
+    # the curved continuation of side 1 falls short of the plane
+    beyond = np.stack([np.linspace(1.0, 1.5, 201), np.full(201, 0.5)], 1)
+    reach, _, _ = continued(occ.bspline_surface(grid)[0], beyond)
+    assert reach[:, 0].max() < edge + 6.0
+    face = trimmed_face(grid, np.array([0.0, 0.0, 1.0]), planes, np.ones(4, bool), DEPTH)
+    assert not face.untrimmed.any()
+    for side in range(4):
+        curve = side_curve(face.surface, side, 65)
+        assert np.abs(curve @ planes[side, :3] - planes[side, 3]).max() < 1e-3
+    assert np.abs(occ.sample_surface(face.surface, 17, 17)[..., 2]).max() < 1e-6
+    assert face.slide[1] == pytest.approx(8.0, abs=0.5)

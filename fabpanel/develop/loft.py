@@ -17,7 +17,7 @@ import numpy as np
 from ..data import DevelopedPanels, PanelLayout, Surface
 from ..job import Job
 from ..surface import SurfaceQuery
-from .sides import side_gaps_and_kinks
+from .sides import folded_sides, side_gaps_and_kinks
 
 
 def ruled_grids(samples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -62,7 +62,16 @@ def develop_loft(
         "kink_deg": {"max": round(float(kinks.max()), 4)},
     }
     result = developed_panels(
-        layout, samples, normals, query, job, "loft", sampled.chords, extra, design_samples=design
+        layout,
+        samples,
+        normals,
+        query,
+        job,
+        "loft",
+        sampled.chords,
+        extra,
+        folded_sides(layout, kinks),
+        design_samples=design,
     )
     for i, pid in enumerate(layout.panel_ids):
         result.metrics["per_panel"][pid]["gap_mm"] = round(float(gaps[i].max()), 4)

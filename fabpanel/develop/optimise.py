@@ -421,7 +421,7 @@ def develop_global(layout: PanelLayout, surface, job, query: SurfaceQuery):
     from ..errors import Issue
     from .measure import gauss_image_areas
     from .project import developed_panels, sample_panels
-    from .sides import side_gaps_and_kinks
+    from .sides import folded_sides, side_gaps_and_kinks
 
     settings = job.develop
     design = sample_panels(layout, query, settings.samples)
@@ -467,7 +467,7 @@ def develop_global(layout: PanelLayout, surface, job, query: SurfaceQuery):
         "corner_slide_mm": _spread(optimiser.corner_slides()),
         "gauss_circle_residual_deg_max": round(float(circle.max()), 4),
     }
-    issues = []
+    issues = list(folded_sides(layout, kinks))
     if not report["converged"]:
         issues.append(
             Issue(

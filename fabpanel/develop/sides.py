@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import Issue
 from ..geom.fitting import bestfit_planes
+
+#: neighbouring sheets whose normals differ by more than this (degrees) along their common
+#: side are folded onto each other: the input refuses creases far gentler than this, so it is
+#: never the design's own
+FOLDED_KINK = 90.0
 
 
 def panel_sides(grids: np.ndarray) -> np.ndarray:
@@ -111,3 +117,28 @@ def side_gaps_and_kinks(
     cosine = np.clip((own_n * theirs_n).sum(-1), -1.0, 1.0)
     kinks = np.nan_to_num(np.degrees(np.arccos(cosine)).max(axis=-1))
     return gaps, kinks
+
+
+def folded_sides(layout, kinks: np.ndarray) -> tuple[Issue, ...]:
+    """An error for each panel folded onto a neighbour (``kinks`` (m, 4), degrees, from
+    :func:`side_gaps_and_kinks`, above ``FOLDED_KINK``), naming both panels and the angle.
+    No sheet or rib can be made there; the layout's panels round it are too large for the
+    surface's curvature or too skewed to bend to a developable shape."""
+    neighbours = layout.side_neighbours
+    issues = []
+    for panel in np.flatnonzero((kinks > FOLDED_KINK).any(axis=1)):
+        side = int(np.argmax(kinks[panel]))
+        other = layout.panel_ids[neighbours[panel, side]]
+        pid = layout.panel_ids[panel]
+        issues.append(
+            Issue(
+                "panel-folded",
+                f"panel {pid} is folded onto {other}: their sheets meet at "
+                f"{kinks[panel, side]:.0f}° across side {side}, so neither can be built; the "
+                f"panels there are too large or too skewed for the surface's curvature: lower "
+                f'panel_size, or draw the layout there (method = "layout")',
+                pid,
+                "error",
+            )
+        )
+    return tuple(issues)

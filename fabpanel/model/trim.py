@@ -37,6 +37,8 @@ from . import occ
 #: Newton stops when the surface point is this close to the plane, mm
 PLANE_TOLERANCE = 1e-7
 NEWTON_ITERATIONS = 30
+#: halvings of a corner's Newton step before it is taken as stuck
+CORNER_HALVINGS = 12
 #: the trimmed face is refitted through this many points per sample interval
 REFIT_DENSITY = 2
 
@@ -91,10 +93,18 @@ def trimmed_face(
     (it fixes ``orient``). A side whose plane does not meet the face, or only after moving the
     edge by more than ``slide_limit`` mm, is left untrimmed (``TrimmedFace.untrimmed``)."""
     mask = np.asarray(trim, dtype=bool).copy()
-    for _ in range(5):
+    order = 2
+    for _ in range(6):
         try:
-            face = _trimmed_face(grid, normal, planes, mask, name)
+            face = _trimmed_face(grid, normal, planes, mask, name, order)
         except _TrimFailed as err:
+            if order == 2:
+                # the face continued by its tangent planes instead: where the face bends
+                # sharply at a corner (a bottom face offset along normals that turn), its
+                # second-order continuation curls back before it reaches a rib plane only
+                # millimetres away (a crown panel of a lopsided shell: 1.4 mm short at best)
+                order = 1
+                continue
             mask[list(err.sides)] = False
             continue
         too_far = mask & (face.slide > slide_limit)
@@ -103,17 +113,22 @@ def trimmed_face(
             continue
         face.untrimmed = np.asarray(trim, dtype=bool) & ~mask
         return face
-    face = _trimmed_face(grid, normal, planes, np.zeros(4, bool), name)
+    face = _trimmed_face(grid, normal, planes, np.zeros(4, bool), name, order)
     face.untrimmed = np.asarray(trim, dtype=bool)
     return face
 
 
 def _trimmed_face(
-    grid: np.ndarray, normal: np.ndarray, planes: np.ndarray, trim: np.ndarray, name: str
+    grid: np.ndarray,
+    normal: np.ndarray,
+    planes: np.ndarray,
+    trim: np.ndarray,
+    name: str,
+    order: int = 2,
 ) -> TrimmedFace:
     source, _ = occ.bspline_surface(grid, name)
     k = grid.shape[0]
-    corners = np.array([_corner(source, c, planes, trim, name) for c in range(4)])
+    corners = np.array([_corner(source, c, planes, trim, name, order) for c in range(4)])
     # refit at twice the sample density, so the new surface follows the source between the
     # samples too (a refit through the k x k samples alone drifted 0.09 mm between them on a
     # panel developed from a faceted mesh); every boundary point of the refit is put on its
@@ -125,12 +140,12 @@ def _trimmed_face(
         start, end = corners[side], corners[(side + 1) % 4]
         uv = np.linspace(start, end, n)
         if trim[side]:
-            uv = _onto_plane(source, uv, across, planes[side], f"{name} side {side}", side)
+            uv = _onto_plane(source, uv, across, planes[side], f"{name} side {side}", side, order)
         else:
             uv[:, across] = value
         sides.append(uv)
     params = coons(sides, np.linspace(0, 1, n), np.linspace(0, 1, n))
-    points, _, _ = continued(source, params.reshape(-1, 2))
+    points, _, _ = continued(source, params.reshape(-1, 2), order)
     new_grid = points.reshape(n, n, 3)
     surface = occ.fitted_surface(new_grid, name)
     # fit error: the developed samples against the new surface, measured across the source
@@ -191,17 +206,21 @@ def coons(sides: list[np.ndarray], s: np.ndarray, t: np.ndarray) -> np.ndarray:
     )
 
 
-def continued(surface, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def continued(surface, uv: np.ndarray, order: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Points, dS/du and dS/dv, each (n, 3) float, of ``surface`` (over the unit square)
-    continued beyond it: at ``uv (n, 2)`` outside, the second-order Taylor expansion at the
-    nearest point of the square; inside, the surface itself. The derivatives are those of the
-    continuation (along an edge the nearest point moves with the parameter, which brings in a
-    third derivative: without it the corner Newton only crept to its root)."""
+    continued beyond it: at ``uv (n, 2)`` outside, the Taylor expansion of ``order`` 2 (or 1:
+    the tangent plane) at the nearest point of the square; inside, the surface itself. The
+    derivatives are those of the continuation (along an edge the nearest point moves with the
+    parameter, which brings in a derivative of one order more: without it the corner Newton
+    only crept to its root)."""
     uv = np.asarray(uv, dtype=float).reshape(-1, 2)
     nearest = np.clip(uv, 0.0, 1.0)
     s, du, dv, duu, dvv, duv, _, _, duuv, duvv = occ.surface_third_derivatives(surface, nearest)
     a, b = (uv - nearest)[:, :1], (uv - nearest)[:, 1:]
     u_inside, v_inside = (a == 0.0), (b == 0.0)
+    if order == 1:
+        point = s + du * a + dv * b
+        return point, du + u_inside * duv * b, dv + v_inside * duv * a
     point = s + du * a + dv * b + 0.5 * (duu * a**2 + 2 * duv * a * b + dvv * b**2)
     d_u = du + duu * a + duv * b + u_inside * 0.5 * duvv * b**2
     d_v = dv + duv * a + dvv * b + v_inside * 0.5 * duuv * a**2
@@ -209,7 +228,7 @@ def continued(surface, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
 
 
 def _onto_plane(
-    surface, uv: np.ndarray, across: int, plane: np.ndarray, what: str, side: int
+    surface, uv: np.ndarray, across: int, plane: np.ndarray, what: str, side: int, order: int
 ) -> np.ndarray:
     """Move each parameter pair along ``across`` until the surface point lies in the plane.
 
@@ -219,7 +238,7 @@ def _onto_plane(
     neighbours, as the edge did before the stations between samples were solved at all."""
     uv = uv.copy()
     for _ in range(NEWTON_ITERATIONS):
-        points, du, dv = continued(surface, uv)
+        points, du, dv = continued(surface, uv, order)
         f = points @ plane[:3] - plane[3]
         reached = np.abs(f) < PLANE_TOLERANCE
         if reached.all():
@@ -238,7 +257,9 @@ def _onto_plane(
     )
 
 
-def _corner(surface, corner: int, planes: np.ndarray, trim: np.ndarray, name: str) -> np.ndarray:
+def _corner(
+    surface, corner: int, planes: np.ndarray, trim: np.ndarray, name: str, order: int
+) -> np.ndarray:
     """The corner's parameters: on the planes of the trimmed sides meeting there, on the
     untrimmed sides' boundaries otherwise."""
     uv = _CORNERS[corner].copy()
@@ -250,19 +271,36 @@ def _corner(surface, corner: int, planes: np.ndarray, trim: np.ndarray, name: st
     if not active:
         return uv
     free = [_SIDES[s][1] for s in active]
-    for _ in range(NEWTON_ITERATIONS):
-        point, du, dv = continued(surface, uv[None])
+
+    def off_planes(at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        point, du, dv = continued(surface, at[None], order)
         f = np.array([point[0] @ planes[s][:3] - planes[s][3] for s in active])
-        if np.abs(f).max() < PLANE_TOLERANCE:
-            return uv
         jac = np.array(
             [[(du[0] if axis == 0 else dv[0]) @ planes[s][:3] for axis in free] for s in active]
         )
+        return f, jac
+
+    f, jac = off_planes(uv)
+    for _ in range(NEWTON_ITERATIONS):
+        if np.abs(f).max() < PLANE_TOLERANCE:
+            return uv
         try:
-            step = np.linalg.solve(jac, f)
+            step = np.clip(np.linalg.solve(jac, f), -0.25, 0.25)
         except np.linalg.LinAlgError:
             break
-        uv[free] -= np.clip(step, -0.25, 0.25)
+        # damped: a full step that leaves the corner farther off its planes is halved until
+        # it does not (near a bottom face's corner, offset along the normals, the undamped
+        # steps swung to and fro about the root, 1-10 mm off, and the side went untrimmed)
+        for _ in range(CORNER_HALVINGS):
+            trial = uv.copy()
+            trial[free] -= step
+            f_trial, jac_trial = off_planes(trial)
+            if np.linalg.norm(f_trial) < np.linalg.norm(f):
+                break
+            step = step / 2
+        else:
+            break
+        uv, f, jac = trial, f_trial, jac_trial
     raise _TrimFailed(
         f"{name}: corner {corner} could not be placed on its rib planes", tuple(active)
     )
