@@ -863,7 +863,9 @@ class StructureSection(_Section):
     #: 10 buckling modes
     max_elements: int = Field(default=6000, ge=50, le=200000)
     #: which boundary ribs stand on foundations: ``lowest``, the anchor nodes within
-    #: ``support_band`` of the lowest one (the thesis's lowest points, now at the anchorages);
+    #: ``support_band`` of the lowest one (the thesis's lowest points, now at the anchorages),
+    #: the band raised until they surround the shell's centre in plan
+    #: (:func:`fabpanel.structure.supports.surrounding_band`);
     #: ``boundary``: every boundary rib; ``openings``: the ribs round the openings (rims);
     #: ``points``: the boundary ribs' anchor nodes within ``support_radius`` of each of
     #: ``support_points`` (columns, base plates), one support each; ``ranges``: the boundary

@@ -112,6 +112,88 @@ def test_supports_all_to_one_side_of_the_centre_of_mass_are_a_warning():
     assert not cantilever_issues(shell.replace(supports=corners), "supports")
 
 
+def _ridge_roof():
+    """A 2 x 2 panel roof on a 2 x 2 m plan whose height rises from 0 at x = 0 to a 1.5 m
+    ridge at x = 1 m and falls to 0.3 m at x = 2 m: its lowest edge is one end."""
+    from types import SimpleNamespace
+
+    x, y = np.meshgrid([0.0, 1000.0, 2000.0], [0.0, 1000.0, 2000.0], indexing="ij")
+    z = np.interp(x, [0.0, 1000.0, 2000.0], [0.0, 1500.0, 300.0])
+    vertices = np.stack([x, y, z], axis=-1).reshape(-1, 3)
+    index = np.arange(9).reshape(3, 3)
+    quads = np.array(
+        [
+            [index[i, j], index[i + 1, j], index[i + 1, j + 1], index[i, j + 1]]
+            for i in (0, 1)
+            for j in (0, 1)
+        ]
+    )
+    layout = fp.data.PanelLayout(vertices, quads, ("P001", "P002", "P003", "P004"), "grid")
+    sides = np.argwhere(layout.side_neighbours < 0)
+    return SimpleNamespace(layout=layout), sides
+
+
+def test_lowest_supports_are_raised_until_they_surround_the_centre():
+    """Held at its lowest edge alone the roof would be a 2 m cantilever: the band rises to
+    the far end's 300 mm, which takes the far edge too and not the sides over the ridge; a
+    vault whose springing lines are both lowest keeps its band."""
+    from fabpanel.structure.supports import lowest_sides, surrounding_band
+
+    developed, sides = _ridge_roof()
+    assert len(lowest_sides(developed, sides, 10.0)) == 2  # the x = 0 edge's two sides
+    band = surrounding_band(developed, sides, 10.0)
+    assert band == pytest.approx(300.0)
+    held = lowest_sides(developed, sides, band)
+    corners = developed.layout.vertices[developed.layout.quads[held[:, 0], held[:, 1]]]
+    assert len(held) == 4 and set(np.round(corners[:, 0])) == {0.0, 2000.0}
+    # already surrounding: unchanged
+    level = developed.layout.vertices.copy()
+    level[:, 2] = np.where(level[:, 0] == 2000.0, 0.0, level[:, 2])
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    flat_ends = SimpleNamespace(layout=replace(developed.layout, vertices=level))
+    assert surrounding_band(flat_ends, sides, 10.0) == 10.0
+
+
+def test_a_failed_check_is_an_error_that_names_its_figures():
+    """The stage's checks that fail end the run with errors (exit 3) naming the governing
+    figure, combination and place; on one-sided supports each says to name them first."""
+    from fabpanel.structure.checks import failed_check_issues
+
+    summary = {
+        "deflection": {
+            "max_mm": 41.2,
+            "ratio": "L/146",
+            "combination": "G+S",
+            "panel": "P007",
+            "limit_mm": 20.0,
+            "span_mm": 6000.0,
+            "ok": False,
+        },
+        "stress": {
+            "max_von_mises_MPa": 120.0,
+            "fy_MPa": 235.0,
+            "utilisation": 0.51,
+            "combination": "1.35G+1.5S",
+            "part": "P007-TOP",
+            "ok": True,
+        },
+        "buckling": {"checked": 4.2, "combination": "1.35G+1.5S", "required": 6.0, "ok": False},
+        "checks": {"deflection": False, "stress": True, "buckling": False},
+    }
+    found = failed_check_issues(summary, one_sided=False)
+    assert [(i.code, i.severity) for i in found] == [
+        ("structure-deflection", "error"),
+        ("structure-buckling", "error"),
+    ]
+    assert "41.2 mm" in found[0].message and "P007" in found[0].message
+    assert "4.2" in found[1].message and "6 required" in found[1].message
+    assert all("supports" in i.message for i in failed_check_issues(summary, one_sided=True))
+    summary["deflection"]["ok"] = summary["buckling"]["ok"] = True
+    assert failed_check_issues(summary, one_sided=False) == []
+
+
 def test_fixed_supports_clamp_the_whole_base_rib(model):
     """``support_fixity = "fixed"`` holds every node of the springing ribs (their sheet
     nodes too: two rows of anchor bolts clamp the base plate), ``"pinned"`` only the anchor

@@ -54,6 +54,7 @@ from .checks import (
     combined_displacement,
     combined_von_mises,
     en1990_combinations,
+    failed_check_issues,
     membrane_compression,
     panel_labels,
     span_of,
@@ -74,6 +75,7 @@ from .supports import (
     range_sides,
     rib_elements_of_sides,
     support_reactions,
+    surrounding_band,
     write_reactions_csv,
 )
 from .weld_checks import FilletWeld, weld_checks
@@ -172,19 +174,7 @@ def shell_and_joints(
     )
     st = job.structure
     layout = developed.layout
-    loops = layout_boundary_loops(
-        np.asarray(layout.quads), np.asarray(layout.side_neighbours), np.asarray(layout.vertices)
-    )
-    what = f'[structure] supports = "{st.supports}"'
-    chosen = loops[1:] if st.supports == "openings" else loops
-    if not chosen:
-        raise GeometryError(f'{what}: the layout has no openings; use "lowest" or "boundary"')
-    sides = np.concatenate(chosen)
-    if st.supports == "lowest":
-        sides = lowest_sides(developed, sides, st.support_band)
-        what += f" (band {st.support_band:g} mm)"
-    elif st.supports == "ranges":
-        sides = range_sides(developed, loops, _local_points(job, st.support_ranges, layout))
+    sides, what, _ = support_sides(developed, job)
     if job.sandwich.buildup == "sandwich":
         supports = anchor_nodes(shell, rib_elements_of_sides(shell, sides), st.support_fixity)
     else:
@@ -196,6 +186,51 @@ def shell_and_joints(
     check_supports(shell.nodes, supports, what)
     shell, joint = attach(shell, model, job)
     return shell.replace(supports=np.unique(supports)), joint
+
+
+def support_sides(developed, job) -> tuple[np.ndarray, str, float]:
+    """The boundary sides (k, 2) (panel, side) whose ribs stand on foundations by
+    ``[structure] supports``, the words that name the choice, and for ``"lowest"`` the band
+    used (:func:`.supports.surrounding_band`: raised from ``support_band`` where the lowest
+    sides alone would hold the shell as a cantilever), else 0."""
+    st = job.structure
+    layout = developed.layout
+    loops = layout_boundary_loops(
+        np.asarray(layout.quads), np.asarray(layout.side_neighbours), np.asarray(layout.vertices)
+    )
+    what = f'[structure] supports = "{st.supports}"'
+    chosen = loops[1:] if st.supports == "openings" else loops
+    if not chosen:
+        raise GeometryError(f'{what}: the layout has no openings; use "lowest" or "boundary"')
+    sides = np.concatenate(chosen)
+    band = 0.0
+    if st.supports == "lowest":
+        band = surrounding_band(developed, sides, st.support_band)
+        sides = lowest_sides(developed, sides, band)
+        what += f" (band {band:g} mm)"
+    elif st.supports == "ranges":
+        sides = range_sides(developed, loops, _local_points(job, st.support_ranges, layout))
+    return sides, what, band
+
+
+def _raised_band_issues(developed, job) -> list[Issue]:
+    """A warning where ``"lowest"`` had to raise its band to surround the shell's centre."""
+    st = job.structure
+    if st.supports != "lowest":
+        return []
+    _, _, band = support_sides(developed, job)
+    if band <= st.support_band:
+        return []
+    return [
+        Issue(
+            "supports-raised",
+            f"no boundary rib within support_band = {st.support_band:g} mm of the lowest "
+            f"boundary point surrounds the shell's centre in plan (it would be checked as a "
+            f"cantilever from one low stretch); the supports are the boundary ribs within "
+            f"{band:.0f} mm of it. If the shell stands elsewhere, name its supports "
+            f'([structure] supports = "ranges" or "points")',
+        )
+    ]
 
 
 def _local_points(job, points, layout) -> np.ndarray:
@@ -315,6 +350,7 @@ def _analyse(
     shell, joint = shell_and_joints(model, job)
     cases, case_info, issues = load_cases(shell, job)
     issues += cantilever_issues(shell, f'[structure] supports = "{st.supports}"')
+    issues += _raised_band_issues(developed, job)
     names = [c.name for c in cases]
 
     # ---- static cases ----------------------------------------------------------------------
@@ -567,6 +603,8 @@ def _analyse(
         "panels": per_panel,
         "files": [f"structure/{name}" for name in files],
     }
+    one_sided = any(i.code == "supports-one-sided" for i in issues)
+    issues += failed_check_issues(summary, one_sided)
     displacement = node_values(shell, np.einsum("c,ceaj->eaj", f_sls[k_d], u_el))
     metrics = {
         "peak_memory_mb": max(run.peak_memory_mb, brun.peak_memory_mb),

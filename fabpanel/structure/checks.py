@@ -211,3 +211,70 @@ def mode_extent(
     involved = np.nonzero(share >= threshold)[0]
     involved = involved[np.argsort(-share[involved], kind="stable")]
     return involved, share[involved]
+
+
+# --------------------------------------------------------------------------------------------
+# failed checks
+# --------------------------------------------------------------------------------------------
+def failed_check_issues(summary: dict, one_sided: bool) -> list:
+    """An error-level issue for each of the stage's own checks that fails (deflection, stress,
+    buckling, GNIA), with the governing figure, combination and place, from the stage's
+    ``summary``: a failed check is what an engineer cannot sign, so the run must not end
+    clean. ``one_sided``: the supports hold the shell as a cantilever from one side
+    (``supports-one-sided``); each message then says to name the real supports first."""
+    from ..errors import Issue
+
+    cause = (
+        "; the supports hold the shell as a cantilever from one side (supports-one-sided): "
+        "name its real supports before reading this"
+        if one_sided
+        else ""
+    )
+    issues = []
+    d = summary["deflection"]
+    if not d["ok"]:
+        issues.append(
+            Issue(
+                "structure-deflection",
+                f"the largest SLS deflection, {d['max_mm']:.1f} mm ({d['ratio']}) under "
+                f"{d['combination']} at {d['panel']}, exceeds the limit of "
+                f"{d['limit_mm']:.1f} mm over the {d['span_mm'] / 1000:.1f} m span{cause}",
+                d["panel"],
+                "error",
+            )
+        )
+    st = summary["stress"]
+    if not st["ok"]:
+        issues.append(
+            Issue(
+                "structure-stress",
+                f"the largest von Mises stress, {st['max_von_mises_MPa']:.0f} MPa under "
+                f"{st['combination']} in {st['part']}, exceeds f_y = {st['fy_MPa']:g} MPa "
+                f"(utilisation {st['utilisation']:.2f}){cause}",
+                st["part"],
+                "error",
+            )
+        )
+    b = summary["buckling"]
+    if not b["ok"]:
+        issues.append(
+            Issue(
+                "structure-buckling",
+                f"the first buckling factor, {b['checked']:g} under {b['combination']}, is "
+                f"below the {b['required']:g} required (1 / [loads] buckling_knockdown){cause}",
+                "",
+                "error",
+            )
+        )
+    g = b.get("gnia")
+    if g is not None and not summary["checks"].get("gnia", True):
+        issues.append(
+            Issue(
+                "structure-gnia",
+                f"the imperfect shell's limit load factor (GNIA), {g['factor']:g}, is below "
+                f"the {g['required']:g} required{cause}",
+                "",
+                "error",
+            )
+        )
+    return issues

@@ -7,7 +7,8 @@ every element edge along the rib), translations only (``support_fixity = "pinned
 turn about its bolt line), or every node of those ribs (``"fixed"``: two rows of bolts clamp
 it). Which ribs: ``supports = "lowest"`` those whose whole design edge lies within
 ``support_band`` of the lowest boundary point (the springing lines of a vault, the ring of a
-dome; when none does, those reaching into the band), ``"boundary"`` every
+dome; when none does, those reaching into the band; the band raised until they surround the
+shell's centre in plan, :func:`surrounding_band`), ``"boundary"`` every
 boundary rib, ``"openings"`` the ribs round the openings (support rims), ``"points"`` the boundary ribs'
 anchor nodes within ``support_radius`` of each of ``support_points`` (columns),
 ``"ranges"`` the boundary ribs between the two points of each of ``support_ranges``, along
@@ -48,6 +49,9 @@ REACTION_COLUMNS = (
 )
 #: columns of ``structure/supports.csv``: where each support is, the point its moments are about
 SUPPORT_COLUMNS = ("support", "x_mm", "y_mm", "z_mm")
+#: the supports' plan hull is grown by this share of the shell's plan diameter before the
+#: centre of mass is looked for in it (a vault on its two springing lines holds it well inside)
+CANTILEVER_MARGIN = 0.05
 
 
 def layout_boundary_loops(
@@ -126,6 +130,42 @@ def lowest_sides(developed, sides: np.ndarray, band: float) -> np.ndarray:
     return sides[whole]
 
 
+def surrounding_band(developed, sides: np.ndarray, band: float) -> float:
+    """The band (mm) for :func:`lowest_sides` from ``band`` up: the smallest at which the
+    chosen sides' corners, in plan, surround the design's centre of area (their hull grown by
+    ``CANTILEVER_MARGIN`` of the plan diameter), so that the shell is not checked as a
+    cantilever from one low corner; ``band`` where it already does, the whole rise where none
+    does. A shell stands on its low edges: a saddle on its two low corners, a canopy sloping
+    to one end on that end and the next lowest stretches round to the other side (the
+    engineer names the real ones with ``"ranges"`` or ``"points"``)."""
+    from shapely.geometry import MultiPoint, Point
+
+    layout = developed.layout
+    quads = np.asarray(layout.quads)
+    vertices = np.asarray(layout.vertices, float)
+    corners = vertices[quads]  # (m, 4, 3)
+    # each panel's plan area as two triangles, its centre the mean of its corners
+    a = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    b = np.cross(corners[:, 2] - corners[:, 0], corners[:, 3] - corners[:, 0])
+    area = np.linalg.norm(a, axis=1) + np.linalg.norm(b, axis=1)
+    centre = Point(*(corners.mean(axis=1)[:, :2] * area[:, None]).sum(axis=0) / area.sum())
+    diameter = float(np.linalg.norm(np.ptp(vertices[:, :2], axis=0)))
+    sides = np.asarray(sides)
+    ends = vertices[
+        np.stack([quads[sides[:, 0], sides[:, 1]], quads[sides[:, 0], (sides[:, 1] + 1) % 4]])
+    ]
+    lowest = float(ends[..., 2].min())
+    top = ends[..., 2].max(axis=0) - lowest  # (k,) each side's band to be taken whole
+    for height in [band, *np.unique(top[top > band])]:
+        chosen = lowest_sides(developed, sides, float(height))
+        points = vertices[quads[chosen[:, 0], chosen[:, 1]], :2]
+        points = np.concatenate([points, vertices[quads[chosen[:, 0], (chosen[:, 1] + 1) % 4], :2]])
+        hull = MultiPoint([tuple(p) for p in points]).convex_hull
+        if hull.buffer(CANTILEVER_MARGIN * diameter).contains(centre):
+            return float(height)
+    return float(top.max())
+
+
 def near_points(nodes: np.ndarray, candidates: np.ndarray, points: np.ndarray, radius: float):
     """(s,) int: the ``candidates`` (node ids) within ``radius`` mm of any of ``points``
     (p, 3); a :class:`GeometryError` for a point with none (it is not on a supported
@@ -200,11 +240,6 @@ def check_supports(nodes: np.ndarray, supports: np.ndarray, what: str) -> None:
             f"raise [structure] support_band or choose another [structure] "
             f"supports"
         )
-
-
-#: the supports' plan hull is grown by this share of the shell's plan diameter before the
-#: centre of mass is looked for in it (a vault on its two springing lines holds it well inside)
-CANTILEVER_MARGIN = 0.05
 
 
 def cantilever_issues(shell: ShellModel, what: str) -> list[Issue]:
