@@ -184,6 +184,7 @@ def _dead_pid() -> int:
     ("scale", "units", "size", "hint"),
     [
         (1000.0, "m", None, "--units mm"),  # mm coordinates declared as metres
+        (100.0, "m", None, "--units cm"),  # cm coordinates declared as metres
         (1.0, "mm", None, "--units m"),  # metre coordinates declared as mm
         (10.0, "m", "0.5 m", "--panel-size"),  # 10600 panels on a 60 x 40 m vault
     ],
