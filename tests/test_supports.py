@@ -154,6 +154,13 @@ def test_lowest_supports_are_raised_until_they_surround_the_centre():
 
     flat_ends = SimpleNamespace(layout=replace(developed.layout, vertices=level))
     assert surrounding_band(flat_ends, sides, 10.0) == 10.0
+    # the report's assumptions say which band held the shell
+    from fabpanel.structure.assumptions import assumptions
+
+    said = [a for a in assumptions(_job(), None, 0, band) if a.startswith("supports:")]
+    assert "within 300 mm" in said[0] and "raised" in said[0]
+    said = [a for a in assumptions(_job(), None, 0, 10.0) if a.startswith("supports:")]
+    assert "within 10 mm" in said[0] and "raised" not in said[0]
 
 
 def test_a_failed_check_is_an_error_that_names_its_figures():

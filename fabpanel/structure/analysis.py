@@ -549,6 +549,7 @@ def _analyse(
             job,
             reference_height(shell, loads) if loads.code == "en1991" else None,
             int(forming.get("sprung", 0)),
+            support_sides(developed, job)[2],
         ),
         "supports": {
             "mode": st.supports,

@@ -6,8 +6,10 @@ from __future__ import annotations
 from .actions import TERRAIN, WindProfile
 
 
-def assumptions(job, reference_height_m: float | None, sprung: int) -> list[str]:
-    """Sentences, each one assumption (national values, models, simplifications, omissions)."""
+def assumptions(job, reference_height_m: float | None, sprung: int, band: float = 0.0) -> list[str]:
+    """Sentences, each one assumption (national values, models, simplifications, omissions);
+    ``band``: for ``supports = "lowest"``, the band used (mm, raised from ``support_band``
+    where the lowest ribs alone did not surround the shell)."""
     loads, st = job.loads, job.structure
     out = []
     if loads.code == "thesis":
@@ -93,8 +95,8 @@ def assumptions(job, reference_height_m: float | None, sprung: int) -> list[str]
             'stiffness: [structure] stiffeners = "mass")'
         ),
         (
-            f"supports: {st.supports} boundary ribs, {st.support_fixity} at their anchor-bolt "
-            "nodes (mid-depth; every rib node when fixed); foundations rigid"
+            f"supports: {_which_supports(st, band)} boundary ribs, {st.support_fixity} at their "
+            "anchor-bolt nodes (mid-depth; every rib node when fixed); foundations rigid"
         ),
         "material linear elastic; von Mises at the shell faces against f_y with gamma_M0 = 1.0",
         _buckling(job),
@@ -130,3 +132,15 @@ def _buckling(job) -> str:
         "governing combination ramped with NLGEOM to its limit point; elastic (no yielding: "
         f"not a GMNIA), the limit factor required to reach gamma_M1 = {st.gamma_m1:g}"
     )
+
+
+def _which_supports(st, band: float) -> str:
+    """The supports' choice in words: the band of ``"lowest"``, said raised where it was."""
+    if st.supports != "lowest":
+        return str(st.supports)
+    if band > st.support_band:
+        return (
+            f"lowest (within {band:.0f} mm of the lowest boundary point: the "
+            f"{st.support_band:g} mm band raised until they surround the shell's centre in plan)"
+        )
+    return f"lowest (within {st.support_band:g} mm of the lowest boundary point)"
