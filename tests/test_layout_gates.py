@@ -307,6 +307,16 @@ def test_field_layouts_of_hard_shapes_meet_the_size_gates(tmp_path, name):
     assert gates["corners_in_45_135"] == 1.0
     assert gates["corners_in_60_120"] >= 0.95
     assert not [i for i in layout.issues if i.code == "layout-narrow-panel"]
+    # the method's own measures describe the layout as polished, as its gates do
+    assert layout.metrics["polish"]["vertices_moved"] > 0 or name != "canopy4"
+    lengths = np.linalg.norm(np.diff(layout.vertices[layout.edges], axis=1)[:, 0], axis=1)
+    assert layout.metrics["edge_length_mm"]["min"] == pytest.approx(lengths.min(), abs=1e-3)
+    assert layout.metrics["edge_length_mm"]["min"] == pytest.approx(
+        gates["shortest_edge_mm"], abs=0.1
+    )
+    assert layout.metrics["corner_angle_deg"]["min"] == pytest.approx(
+        gates["corner_angle_deg"][0], abs=0.01
+    )
 
 
 @pytest.mark.parametrize("name", ["dome_oculus", "hypar_hole", "wavy_strip"])

@@ -186,7 +186,13 @@ def test_a_failed_check_is_an_error_that_names_its_figures():
             "part": "P007-TOP",
             "ok": True,
         },
-        "buckling": {"checked": 4.2, "combination": "1.35G+1.5S", "required": 6.0, "ok": False},
+        "buckling": {
+            "checked": 4.2,
+            "combination": "1.35G+1.5S",
+            "required": 6.0,
+            "modes": [{"mode": 1, "factor": 4.3, "panels": ["P008"]}],
+            "ok": False,
+        },
         "checks": {"deflection": False, "stress": True, "buckling": False},
     }
     found = failed_check_issues(summary, one_sided=False)
@@ -196,6 +202,7 @@ def test_a_failed_check_is_an_error_that_names_its_figures():
     ]
     assert "41.2 mm" in found[0].message and "P007" in found[0].message
     assert "4.2" in found[1].message and "6 required" in found[1].message
+    assert found[1].item == "P008" and "lies in P008" in found[1].message
     assert all("supports" in i.message for i in failed_check_issues(summary, one_sided=True))
     summary["deflection"]["ok"] = summary["buckling"]["ok"] = True
     assert failed_check_issues(summary, one_sided=False) == []

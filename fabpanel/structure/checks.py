@@ -257,12 +257,19 @@ def failed_check_issues(summary: dict, one_sided: bool) -> list:
         )
     b = summary["buckling"]
     if not b["ok"]:
+        panels = b["modes"][0]["panels"] if b.get("modes") else []
+        where = (
+            f"; its mode lies in {', '.join(panels[:4])}{' ...' if len(panels) > 4 else ''}"
+            if panels
+            else ""
+        )
         issues.append(
             Issue(
                 "structure-buckling",
                 f"the first buckling factor, {b['checked']:g} under {b['combination']}, is "
-                f"below the {b['required']:g} required (1 / [loads] buckling_knockdown){cause}",
-                "",
+                f"below the {b['required']:g} required (1 / [loads] buckling_knockdown)"
+                f"{where}{cause}",
+                panels[0] if len(panels) == 1 else "",
                 "error",
             )
         )

@@ -56,16 +56,19 @@ def buckling_convergence(
         last = table[-2:]
         detail = (
             f"changed by {_change(last[0][1], last[1][1]):.1%} from {last[0][0]} to "
-            f"{last[1][0]} elements per panel side"
+            f"{last[1][0]} elements per panel side ({last[0][1]:.3g} to {last[1][1]:.3g})"
             if len(last) == 2
             else "could not be compared with another element size"
         )
+        falling = len(last) == 2 and last[1][1] < last[0][1]
         issues.append(
             Issue(
                 "buckling-not-converged",
                 (
                     f"the first buckling factor {detail}; the element budget stops a finer "
-                    "mesh: raise [structure] max_elements or set element_size to check it"
+                    "mesh, and the check uses the smallest factor found"
+                    + (", which a finer mesh may lower further" if falling else "")
+                    + ": raise [structure] max_elements or set element_size to check it"
                 ),
                 severity="warning",
             )
