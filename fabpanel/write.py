@@ -283,7 +283,9 @@ def _write_files(result: Result, folder: Path, progress: Progress, workers: int)
     written = sum(1 for path in folder.rglob("*") if path.is_file())
     # side by side: each writer's own time, which overlap
     split = ", ".join(f"{k} {timed[k]:.0f} s" for k in WRITERS if k in timed)
-    progress.finish("write", time.perf_counter() - started, f"{written} files ({split})")
+    progress.finish(
+        "write", time.perf_counter() - started, f"{written} files (side by side: {split})"
+    )
 
 
 def _json_default(value):
