@@ -213,13 +213,11 @@ def support_sides(developed, job) -> tuple[np.ndarray, str, float]:
     return sides, what, band
 
 
-def _raised_band_issues(developed, job) -> list[Issue]:
-    """A warning where ``"lowest"`` had to raise its band to surround the shell's centre."""
+def _raised_band_issues(job, band: float) -> list[Issue]:
+    """A warning where ``"lowest"`` had to raise its ``band`` (mm, :func:`support_sides`) to
+    surround the shell's centre."""
     st = job.structure
-    if st.supports != "lowest":
-        return []
-    _, _, band = support_sides(developed, job)
-    if band <= st.support_band:
+    if st.supports != "lowest" or band <= st.support_band:
         return []
     return [
         Issue(
@@ -350,7 +348,8 @@ def _analyse(
     shell, joint = shell_and_joints(model, job)
     cases, case_info, issues = load_cases(shell, job)
     issues += cantilever_issues(shell, f'[structure] supports = "{st.supports}"')
-    issues += _raised_band_issues(developed, job)
+    band = support_sides(developed, job)[2]  # the shell's supports chose the same
+    issues += _raised_band_issues(job, band)
     names = [c.name for c in cases]
 
     # ---- static cases ----------------------------------------------------------------------
@@ -549,7 +548,7 @@ def _analyse(
             job,
             reference_height(shell, loads) if loads.code == "en1991" else None,
             int(forming.get("sprung", 0)),
-            support_sides(developed, job)[2],
+            band,
         ),
         "supports": {
             "mode": st.supports,
