@@ -28,6 +28,23 @@ UNITS: dict[str, dict[str, float]] = {
     "velocity": {"m/s": 1.0, "km/h": 1.0 / 3.6},
 }
 
+#: the extent (largest plan or height, m) of a shell this tool is for: a unit that brings a
+#: surface into it is the likely one where the declared unit does not
+PLAUSIBLE_EXTENT_M = (2.0, 300.0)
+
+
+def plausible_length_unit(extent: float, declared: str) -> str | None:
+    """The first length unit other than ``declared`` under which a surface ``extent`` long in
+    ``declared`` units (its largest side) is a building shell's (``PLAUSIBLE_EXTENT_M``);
+    None where there is none."""
+    lengths = UNITS["length"]
+    low, high = PLAUSIBLE_EXTENT_M
+    for unit, scale in lengths.items():
+        if unit != declared and low <= extent * scale / 1000 <= high:
+            return unit
+    return None
+
+
 #: unit of each dimension used when writing quantities back (manifest, job as run)
 INTERNAL_UNIT = {
     "length": "mm",

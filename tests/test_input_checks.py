@@ -264,6 +264,29 @@ def test_step_crease_between_unsewn_faces_with_different_points_is_refused(tmp_p
     assert "(0, 1000, 0) to (2000, 1000, 0) mm" in message
 
 
+def test_step_in_the_wrong_unit_is_refused_before_it_is_meshed(tmp_path):
+    """A 14 x 11 m roof whose file says metres where its numbers are millimetres is 14 km
+    across: meshing it to the surface tolerance ran out of memory with no word. It is refused
+    at once, with the unit that would make it a shell; the same roof in mm loads."""
+    import build123d as bd
+
+    roof = bd.Face.make_rect(14_000.0, 11_000.0)
+    ok = write_step(tmp_path / "roof.step", roof.wrapped)
+    assert load_surface(ok).bounds[1, 0] - load_surface(ok).bounds[0, 0] == pytest.approx(14_000)
+    # the numbers 14000 x 11000 declared as metres: the shape is 1000 x as large
+    huge = write_step(tmp_path / "roof_m.step", roof.scale(1000.0).wrapped, "M")
+    with pytest.raises(InputError) as info:
+        load_surface(huge)
+    message = str(info.value)
+    assert_one_line(message, "roof_m.step")
+    assert "14,000 x 11,000 x 0 m" in message and "(m)" in message
+    assert "with mm as its unit (14 m across then)" in message
+    # nothing plausible: no unit suggested, the export named
+    far = write_step(tmp_path / "far.step", roof.scale(1e6).wrapped)
+    with pytest.raises(InputError, match="in the unit it was drawn in"):
+        load_surface(far)
+
+
 def test_crease_angle_is_a_job_key_with_the_same_default():
     assert Job.from_dict({}).input.crease_angle == CREASE_ANGLE
     assert Job.from_dict({"input": {"crease_angle": 90}}).input.crease_angle == 90.0

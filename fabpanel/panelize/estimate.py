@@ -17,7 +17,7 @@ import numpy as np
 from ..data import Surface
 from ..errors import InputError
 from ..job import Job
-from ..units import UNITS
+from ..units import UNITS, plausible_length_unit
 
 
 def estimated_panels(surface: Surface, job: Job) -> float:
@@ -33,30 +33,18 @@ def _in_input_units(values_mm: np.ndarray, units: str) -> str:
     return " x ".join(f"{v / scale:.4g}" for v in values_mm) + f" {units}"
 
 
-#: the extent (largest plan or height, m) of a shell this tool is for: a unit that brings the
-#: surface into it is the likely one
-PLAUSIBLE_EXTENT_M = (2.0, 300.0)
-
-
 def _unit_hint(surface: Surface, larger: bool) -> str:
     """The likely unit mistake, as the start of the fix: meshes declare units (in the job's
     ``[input] units`` or ``--units``), B-reps carry them. The unit suggested is the one under
-    which the surface's extent is that of a building shell (``PLAUSIBLE_EXTENT_M``), with the
+    which the surface's extent is that of a building shell (``units.PLAUSIBLE_EXTENT_M``), with the
     extent it would then have; the next unit the right way where none is."""
     if surface.format in ("step", "iges", "brep"):
         return "check the units the file was exported in, or "
     lengths = UNITS["length"]
     size = surface.bounds[1] - surface.bounds[0]
     as_given = size / lengths.get(surface.units, 1.0)  # in the declared unit
-    plausible = [
-        unit
-        for unit in lengths
-        if unit != surface.units
-        and PLAUSIBLE_EXTENT_M[0] <= as_given.max() * lengths[unit] / 1000 <= PLAUSIBLE_EXTENT_M[1]
-    ]
-    if plausible:
-        wanted = plausible[0]
-    else:
+    wanted = plausible_length_unit(float(as_given.max()), surface.units)
+    if wanted is None:
         wanted = "m" if larger else "mm"
         if surface.units == wanted:
             return ""

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..data import Surface
 from ..errors import InputError, KernelError
+from ..units import UNITS, plausible_length_unit
 from .boundary import boundary_loops, orient_consistently
 from .checks import CREASE_ANGLE, check_surface
 from .mesh import outer_orientation
@@ -44,6 +45,9 @@ TESS_ANGLE = 0.1
 #: welding tolerance of the tessellation as a fraction of the bounding-box diagonal (see
 #: ``weld_tessellation``)
 WELD_RELATIVE = 1e-6
+#: m: a B-rep larger than this, in the unit its file declares, is a unit mistake (ten times
+#: the largest shell, ``units.PLAUSIBLE_EXTENT_M``), refused before it is meshed
+MAX_EXTENT_M = 3000.0
 
 
 # --------------------------------------------------------------------------------------------
@@ -111,6 +115,7 @@ def read_brep(path: Path, units: str | None = None, crease_angle: float = CREASE
             f"{path.name}: contains no surface (no faces); export the design "
             f"surface as a surface or a mesh"
         )
+    _refuse_absurd_extent(shape, path, declared)
     try:
         vertices, triangles, _ = tessellate(shape)
     except KernelError as err:
@@ -152,6 +157,38 @@ def _set_session_unit_mm() -> None:
     IGESControl_Controller.Init_s()
     if not Interface_Static.SetCVal_s("xstep.cascade.unit", "MM"):
         raise KernelError("cannot set OCCT's xstep.cascade.unit to MM")
+
+
+def _refuse_absurd_extent(shape, path: Path, declared: str) -> None:
+    """Refuse a B-rep larger than ``MAX_EXTENT_M`` in the unit its file declares, before it is
+    meshed: a roof drawn in mm and exported as metres is 14 km across, and meshing it to
+    the surface tolerance (1 mm at most) took 24 GB before the kernel killed the run, with no
+    word. B-rep files carry their units, so the fix is in the export."""
+    from OCP.Bnd import Bnd_Box
+    from OCP.BRepBndLib import BRepBndLib
+
+    box = Bnd_Box()
+    BRepBndLib.Add_s(shape, box, False)
+    if box.IsVoid():
+        return
+    low, high = box.CornerMin(), box.CornerMax()
+    size = np.array([high.X() - low.X(), high.Y() - low.Y(), high.Z() - low.Z()])  # mm
+    if size.max() <= MAX_EXTENT_M * 1000:
+        return
+    scale = UNITS["length"].get(declared, 1.0)  # mm per declared unit
+    wanted = plausible_length_unit(float(size.max() / scale), declared)
+    fix = (
+        f"if its coordinates are in {wanted}, export it again with {wanted} as its unit "
+        f"({size.max() / scale * UNITS['length'][wanted] / 1000:.3g} m across then)"
+        if wanted
+        else "export it again in the unit it was drawn in"
+    )
+    raise InputError(
+        f"{path.name}: the surface is {' x '.join(f'{v / 1000:,.0f}' for v in size)} m in the "
+        f"unit the file declares ({declared}), larger than any shell (refused above "
+        f"{MAX_EXTENT_M:,.0f} m); {fix} "
+        f"(B-rep files carry their own units: [input] units does not apply to them)"
+    )
 
 
 def _read_step(path: Path):
