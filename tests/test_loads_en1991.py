@@ -9,7 +9,13 @@ import pytest
 from fabpanel.job import Job
 from fabpanel.structure import Material, patch_model
 from fabpanel.structure.actions import WindProfile, external_coefficients, snow_shape
-from fabpanel.structure.cases import load_cases, principal_axes, wind_directions
+from fabpanel.structure.cases import (
+    _centres,
+    load_cases,
+    plan_axes,
+    principal_axes,
+    wind_directions,
+)
 from fabpanel.structure.checks import en1990_combinations
 from fabpanel.structure.loads import gravity_forces
 
@@ -143,6 +149,21 @@ def test_default_wind_directions_follow_the_plan_and_a_given_list_is_kept():
     assert abs(axes[0] @ [0, 1]) == pytest.approx(1.0)  # the long side along y
     assert sorted(wind_directions(model, _job().loads)) == pytest.approx([0, 90, 180, 270])
     assert wind_directions(model, _job(wind_directions=[30.0, 400.0]).loads) == [30.0, 40.0]
+
+
+def test_the_plan_axes_do_not_follow_the_mesh_density():
+    """A 14 x 11 m rectangular plan meshed much finer towards two of its corners: counted
+    element by element the axes turn 28 degrees; weighted by plan area they stay on x and
+    y, and the wind runs along and across them (W0, W90, ...)."""
+    u, v = np.meshgrid(np.linspace(0, 1, 25), np.linspace(0, 1, 25), indexing="ij")
+    x, y = 14000.0 * u ** (1 + 1.5 * v), 11000.0 * v ** (1 + 1.5 * u)
+    model = patch_model(np.stack([x, y, 3000.0 + 0 * x], axis=-1), 3.0, Material())[0]
+    _, counted = principal_axes(_centres(model))
+    assert abs(np.degrees(np.arctan2(counted[0, 1], counted[0, 0]))) > 20
+    centre, axes = plan_axes(model, model.group == 0)
+    assert abs(np.degrees(np.arctan2(axes[0, 1], axes[0, 0]))) < 0.5
+    np.testing.assert_allclose(centre, [7000.0, 5500.0], atol=10.0)
+    assert wind_directions(model, _job().loads) == [0.0, 90.0, 180.0, 270.0]
 
 
 def test_a_case_that_misses_the_shape_is_a_warning_naming_it():

@@ -73,18 +73,37 @@ def load_cases(
 # --------------------------------------------------------------------------------------------
 # EN 1991
 # --------------------------------------------------------------------------------------------
-def principal_axes(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def principal_axes(
+    points: np.ndarray, weights: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """The plan's centroid (2,) and principal axes (2, 2) (rows, the major first) of
-    ``points (n, 3)``; the major axis points along +x (or +y when it runs square to x)."""
+    ``points (n, 3)``, each weighted by ``weights (n,)`` (default equal); the major axis
+    points along +x (or +y when it runs square to x)."""
     xy = points[:, :2]
-    centre = xy.mean(axis=0)
-    _, vectors = np.linalg.eigh(np.cov((xy - centre).T))
+    w = np.ones(len(xy)) if weights is None else np.asarray(weights, dtype=float)
+    centre = (w[:, None] * xy).sum(axis=0) / w.sum()
+    offsets = xy - centre
+    _, vectors = np.linalg.eigh(
+        (w[:, None, None] * offsets[:, :, None] * offsets[:, None, :]).sum(0)
+    )
     axes = vectors[:, ::-1].T.copy()
     for k in range(2):
         lead = axes[k, 0] if abs(axes[k, 0]) > 1e-9 else axes[k, 1]
         if lead < 0:
             axes[k] *= -1
     return centre, axes
+
+
+def plan_axes(shell: ShellModel, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`principal_axes` of the plan the ``elements`` cover, each element weighted by its
+    area in plan: the mesh's density does not tilt them (a roof meshed finer round its
+    skylight had its axes 7 degrees off its rectangular plan when every element counted
+    alike). A plan so steep that it has no area (a wall) weighs the elements by their area."""
+    normals, areas = element_integrals(shell)
+    area = areas.sum(axis=1)[elements]
+    in_plan = area * np.abs(normals[elements, 2])
+    weights = in_plan if in_plan.sum() > 1e-3 * area.sum() else area
+    return principal_axes(_centres(shell)[elements], weights)
 
 
 def _centres(shell: ShellModel) -> np.ndarray:
@@ -104,7 +123,7 @@ def _snow_cases(shell, loads, top) -> tuple[list[ccx.LoadCase], dict[str, CaseIn
     cases = [ccx.LoadCase("S", forces=area_forces(shell, s * mu, (0, 0, -1), top, True))]
     info = {"S": CaseInfo("snow", f"snow, undrifted: {base}, on the plan")}
     centres = _centres(shell)
-    centre, axes = principal_axes(centres[top])
+    centre, axes = plan_axes(shell, top)
     across = (centres[:, :2] - centre) @ axes.T  # (E, 2)
     for k, (axis, which) in enumerate(
         ((0, "major"), (0, "major"), (1, "minor"), (1, "minor")), start=1
@@ -137,13 +156,21 @@ def _snow_cases(shell, loads, top) -> tuple[list[ccx.LoadCase], dict[str, CaseIn
     return cases, info
 
 
+#: degrees: principal axes this close to x or y are taken as x and y (the wind cases are then
+#: named W0, W90, ... as a plan drawn along them leads its user to expect)
+AXIS_SNAP_DEG = 1.0
+
+
 def wind_directions(shell: ShellModel, loads) -> list[float]:
     """The wind directions, degrees from +x: the job's, else along and across the plan's
     principal axes, both ways."""
     if loads.wind_directions:
         return [_whole_turn(float(a)) for a in loads.wind_directions]
-    _, axes = principal_axes(_centres(shell)[shell.group == 0])
+    _, axes = plan_axes(shell, np.flatnonzero(shell.group == 0))
     major = float(np.degrees(np.arctan2(axes[0, 1], axes[0, 0])))
+    square = 90.0 * round(major / 90.0)
+    if abs(major - square) <= AXIS_SNAP_DEG:
+        major = square  # a plan drawn along x and y (a skylight off the middle tilts its axes)
     return [_whole_turn(major + 90.0 * k) for k in range(4)]
 
 
