@@ -207,7 +207,9 @@ def test_the_buckling_mesh_study_refines_until_the_factor_settles_or_the_budget_
     calls.clear()
     study, issues = buckling_convergence(first_at, 2, 15.0, lambda k: k <= 4)
     assert [r["per_side"] for r in study["table"]] == [1, 2, 3, 4] and not study["converged"]
-    assert issues[0].code == "buckling-not-converged" and "3 to 4" in issues[0].message
+    assert issues[0].code == "buckling-not-converged"
+    # the fall measured against the coarser mesh's factor: 12.22 -> 11.25 is 8 %
+    assert "fell by 8% from 12.2 at 3 to 11.2 at 4 elements per panel side" in issues[0].message
     assert "may lower further" in issues[0].message  # 12.2 -> 11.25: still falling
     # the check, the progress line and the report use the smallest factor found, and name the
     # main run's beside it
@@ -218,3 +220,10 @@ def test_the_buckling_mesh_study_refines_until_the_factor_settles_or_the_budget_
     summary = {"first": 15.0, "checked": checked, "convergence": study, "required": 6.0}
     assert buckling_text(summary) == "11.25 (finer mesh of the study; 15.00 at 2 per side)"
     assert buckling_text({**summary, "checked": 15.0}) == "15.00"
+    # the report's row: an OK at the finest mesh allowed says it is not converged
+    from fabpanel.report.structure_figures import _unsettled
+
+    assert _unsettled({"convergence": study}).startswith(
+        " at the finest mesh allowed, NOT converged (the first factor fell by 8% from 12.2"
+    )
+    assert _unsettled({"convergence": {**study, "converged": True}}) == ""

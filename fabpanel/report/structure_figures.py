@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..structure.analysis import element_counts
+from ..structure.convergence import last_step
 
 #: S8R node order around the element outline (corner, mid-side, corner...)
 _OUTLINE = [0, 4, 1, 5, 2, 6, 3, 7]
@@ -140,6 +141,15 @@ def _gnia_row(g: dict, ok) -> str:
     )
 
 
+def _unsettled(buckling: dict) -> str:
+    """ ", NOT converged (the factor fell by 40% ...)" where the mesh study stopped before the
+    first factor settled: an OK that a finer mesh may overturn."""
+    convergence = buckling.get("convergence", {})
+    if len(convergence.get("table", ())) < 2 or convergence.get("converged", True):
+        return ""
+    return f" at the finest mesh allowed, NOT converged (the first factor {last_step(convergence)})"
+
+
 def _bolts_row(bolts: dict, ok) -> str:
     """The joint bolts' check in one line (or why there is none)."""
     if not bolts.get("checked"):
@@ -236,7 +246,7 @@ def structure_blocks(result) -> list:
             "buckling",
             (
                 f"factors {', '.join(f'{f:.3g}' for f in b['factors'])} under {b['combination']}; "
-                f"required {b['required']:.3g}: {ok(b['ok'])}"
+                f"required {b['required']:.3g}: {ok(b['ok'])}{_unsettled(b)}"
             ),
         ),
         ("stiffeners", str(mesh["stiffeners"])),

@@ -54,13 +54,12 @@ def buckling_convergence(
     issues = []
     if not converged:
         last = table[-2:]
+        falling = len(last) == 2 and last[1][1] < last[0][1]
         detail = (
-            f"changed by {_change(last[0][1], last[1][1]):.1%} from {last[0][0]} to "
-            f"{last[1][0]} elements per panel side ({last[0][1]:.3g} to {last[1][1]:.3g})"
+            last_step(summary)
             if len(last) == 2
             else "could not be compared with another element size"
         )
-        falling = len(last) == 2 and last[1][1] < last[0][1]
         issues.append(
             Issue(
                 "buckling-not-converged",
@@ -74,6 +73,17 @@ def buckling_convergence(
             )
         )
     return summary, issues
+
+
+def last_step(convergence: dict) -> str:
+    """How the first factor moved at the study's last refinement, against the coarser mesh's
+    value: "fell by 81% from 90.9 at 2 to 16.8 at 3 elements per panel side"."""
+    (n0, f0), (n1, f1) = ((r["per_side"], r["first"]) for r in convergence["table"][-2:])
+    way = "fell" if f1 < f0 else "rose"
+    return (
+        f"{way} by {abs(f1 - f0) / max(abs(f0), 1e-12):.0%} from {f0:.3g} at {n0} to {f1:.3g} "
+        f"at {n1} elements per panel side"
+    )
 
 
 def checked_factor(first: float, convergence: dict) -> float:
