@@ -55,6 +55,14 @@ class Tolerances:
     #: a rib leaning that far, or further than ``trim_slide`` lets the sheets reach, cuts the
     #: chord instead (develop, ``largest_rib_lean``)
     rib_tangent_deg: float = 30.0
+    #: degrees: a side whose best-fitting plane leans more than this from square to its sheet,
+    #: and that lies within ``rib_edge`` of the square plane, gets the square plane: within the
+    #: edge tolerance a rib stands square. A vault's springing lines on the ground, straight to
+    #: 0.3 mm but exactly level, gave level base ribs under sheets rising at 38-46 degrees: at
+    #: two corners the bottom sheet never met its rib (121 mm off) and the rib would not
+    #: extrude, at the other two the ribs took their corner stiffeners' seat (clashes). A rib
+    #: leaning further than this also explains a stiffener that finds no seat (build)
+    square_rib_lean_deg: float = 15.0
 
 
 TOLERANCES = Tolerances()

@@ -129,6 +129,35 @@ def test_rib_planes_of_a_cone_hold_the_sides_at_a_constant_bevel():
     np.testing.assert_allclose(angle[0], [0.0, 60.0, 0.0, 60.0], atol=1e-6)
 
 
+@pytest.mark.parametrize("bow, square", [(0.3, True), (3.0, False)])
+def test_a_nearly_straight_level_side_under_a_rising_sheet_gets_a_square_rib(bow, square):
+    """A sheet rising at 40 degrees from a springing line on the ground that bows ``bow`` mm
+    in plan: the line lies exactly in the level plane, which leans 50 degrees from square to
+    the sheet (a vault's base rib its bottom sheet never met). Within the rib-edge tolerance
+    of the square plane, the rib stands square; a line bowing further keeps its own plane."""
+    u, v = np.meshgrid(np.linspace(0.0, 1.0, 9), np.linspace(0.0, 1.0, 9), indexing="ij")
+    rise = np.radians(40.0)
+    grid = np.stack(
+        [
+            1000.0 * u,
+            1000.0 * v * np.cos(rise) + bow * 4 * u * (1 - u) * (1 - v),
+            1000.0 * v * np.sin(rise),
+        ],
+        -1,
+    )[None]
+    normal = np.broadcast_to([0.0, -np.sin(rise), np.cos(rise)], grid.shape).copy()
+    planes, edge, angle, _ = side_planes(grid, normal)
+    level = abs(planes[0, 0, 2]) / np.linalg.norm(planes[0, 0, :3])  # side 0 runs along v = 0
+    if square:
+        assert (
+            angle[0, 0] < 1.0
+            and edge[0, 0] <= 0.5
+            and level == pytest.approx(np.sin(rise), abs=1e-3)
+        )
+    else:
+        assert angle[0, 0] == pytest.approx(50.0, abs=0.5) and edge[0, 0] < 1e-6 and level > 0.999
+
+
 def test_gaussian_curvature_figures_match_analytic_shapes():
     t = np.linspace(-0.15, 0.15, 9)
     a, b = np.meshgrid(t, t, indexing="ij")

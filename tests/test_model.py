@@ -585,3 +585,24 @@ def test_the_clash_check_keeps_only_a_band_of_panel_unions_alive():
     # every pair is checked when its later panel is visited, after both unions were made
     position = {g: k for k, g in enumerate(order)}
     assert all(last[a] >= position[b] and last[b] >= position[a] for a, b in pairs)
+
+
+def test_a_stiffener_without_a_seat_names_the_leaning_rib_not_the_panel_size():
+    """A corner stiffener whose outline vanishes beside a rib leaning 44 degrees from square to
+    the sheet (a vault's level base rib) is put down to that rib; beside square ribs the
+    kernel's own reason stands."""
+    from types import SimpleNamespace
+
+    from fabpanel.errors import KernelError
+    from fabpanel.model.panel import _unseated
+
+    sheet = np.array([0.0, -np.sin(np.radians(44.0)), np.cos(np.radians(44.0))])
+    payload = SimpleNamespace(normals=np.broadcast_to(sheet, (9, 9, 3)).copy())
+    square = np.array([[0.0, np.cos(np.radians(44.0)), np.sin(np.radians(44.0)), 0.0]] * 4)
+    err = KernelError("outline of P001-STF-1 vanished when trimmed at rib 0")
+    assert _unseated(payload, square, 1, err) == f"not built: {err}"
+    level = square.copy()
+    level[0] = [0.0, 0.0, 1.0, 0.0]  # side 0: the level base rib
+    message = _unseated(payload, level, 1, err)
+    assert message.startswith("not built: rib 0 stands 46 degrees off square to the sheet")
+    assert "too small" not in message

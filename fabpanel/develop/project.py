@@ -21,7 +21,7 @@ from ..surface import SurfaceQuery
 from ..surface.design_boundary import boundary_deviation
 from ..tolerances import TOLERANCES
 from .measure import classify_and_measure
-from .sides import side_planes
+from .sides import largest_rib_lean, side_planes
 
 log = logging.getLogger(__name__)
 
@@ -249,15 +249,6 @@ def _boundary_stretches(
         if length <= STRETCH_LIMIT * max(chord, 1e-9):
             stretches[index[(int(a), int(b))]] = stretch
     return stretches
-
-
-def largest_rib_lean() -> float:
-    """Degrees: the most a boundary rib may lean from square to its sheet and still be built.
-    Leaning ``a``, it meets the bottom sheet ``depth x tan(a)`` along the sheet from the top
-    sheet's edge, and the build slides a sheet edge at most ``trim_slide x depth`` to reach its
-    rib (45 degrees at the default 1.0); nor may it lie within ``rib_tangent_deg`` of the sheet."""
-    slide = float(np.degrees(np.arctan(TOLERANCES.trim_slide)))
-    return min(90.0 - TOLERANCES.rib_tangent_deg, slide)
 
 
 def _flat_rib_chords(

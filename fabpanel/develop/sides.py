@@ -6,6 +6,7 @@ import numpy as np
 
 from ..errors import Issue
 from ..geom.fitting import bestfit_planes
+from ..tolerances import TOLERANCES
 
 #: neighbouring sheets whose normals differ by more than this (degrees) along their common
 #: side are folded onto each other: the input refuses creases far gentler than this, so it is
@@ -30,6 +31,15 @@ def panel_sides(grids: np.ndarray) -> np.ndarray:
 SQUARE_RIB_FIT = 0.05
 
 
+def largest_rib_lean() -> float:
+    """Degrees: the most a boundary rib may lean from square to its sheet and still be built.
+    Leaning ``a``, it meets the bottom sheet ``depth x tan(a)`` along the sheet from the top
+    sheet's edge, and the build slides a sheet edge at most ``trim_slide x depth`` to reach its
+    rib (45 degrees at the default 1.0); nor may it lie within ``rib_tangent_deg`` of the sheet."""
+    slide = float(np.degrees(np.arctan(TOLERANCES.trim_slide)))
+    return min(90.0 - TOLERANCES.rib_tangent_deg, slide)
+
+
 def side_planes(
     samples: np.ndarray, normals: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -37,7 +47,9 @@ def side_planes(
 
     The plane holds the sheet edge: the best-fitting plane of the side's samples, or, where the
     side is nearly straight and leaves that plane undetermined, the plane through the side's
-    direction and its mean normal (``SQUARE_RIB_FIT``).
+    direction and its mean normal (``SQUARE_RIB_FIT``). That square plane is also taken where
+    the best-fitting one leans more than ``TOLERANCES.square_rib_lean_deg`` from square to the
+    sheet and the side lies within ``TOLERANCES.rib_edge`` of the square one.
     Returns ``planes (m, 4, 4)`` as (nx, ny, nz, d) with the normal pointing into the panel;
     ``edge_residuals (m, 4)``: the largest distance of a side sample from its plane, mm; and
     ``normal_angles (m, 4)``: the largest angle between a normal along the side (corners
@@ -61,7 +73,13 @@ def side_planes(
     square_fit = np.abs(np.einsum("bki,bi->bk", flat_points, square) - square_offsets[:, None]).max(
         axis=1
     )
-    use_square = square_fit <= np.maximum(SQUARE_RIB_FIT, edge_fit)
+    fit_normals = np.einsum(
+        "bki,bi->bk", side_normals[:, :, 1:-1].reshape(m * 4, k - 2, 3), plane_normals
+    )
+    fit_lean = np.degrees(np.arcsin(np.clip(np.abs(fit_normals).max(axis=1), 0.0, 1.0)))
+    use_square = (square_fit <= np.maximum(SQUARE_RIB_FIT, edge_fit)) | (
+        (fit_lean > TOLERANCES.square_rib_lean_deg) & (square_fit <= TOLERANCES.rib_edge)
+    )
     plane_normals = np.where(use_square[:, None], square, plane_normals).reshape(m, 4, 3)
     offsets = np.where(use_square, square_offsets, offsets).reshape(m, 4)
     # orient each plane normal towards the panel's centre sample

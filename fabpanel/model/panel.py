@@ -500,8 +500,29 @@ def _stiffeners(
                 )
             )
         except KernelError as err:
-            findings.append(("stiffener-skipped", name, f"not built: {err}"))
+            findings.append(("stiffener-skipped", name, _unseated(payload, planes, corner, err)))
     return stiffeners
+
+
+def _unseated(payload: PanelPayload, planes: np.ndarray, corner: int, err: KernelError) -> str:
+    """Why a corner's stiffener could not be built: where one of its two ribs stands well off
+    square to the sheet (a boundary rib following a design edge that curves in the sheet's
+    plane: a vault's level base ribs under sheets rising at 44 degrees), that rib, not the
+    panel's size, left the stiffener no seat."""
+    rows = side_rows(payload.normals)
+    leans = {}
+    for side in (corner, (corner - 1) % 4):
+        normal = planes[side, :3] / np.linalg.norm(planes[side, :3])
+        sines = np.abs(rows[side][1:-1] @ normal)
+        leans[side] = float(np.degrees(np.arcsin(min(1.0, sines.max()))))
+    side = max(leans, key=lambda s: leans[s])
+    if leans[side] <= TOLERANCES.square_rib_lean_deg:
+        return f"not built: {err}"
+    return (
+        f"not built: rib {side} stands {leans[side]:.0f} degrees off square to the sheet (a "
+        "boundary rib following a design edge that curves in the sheet's plane), which leaves "
+        "the stiffener no seat; the corner is held by its ribs alone"
+    )
 
 
 def _packing_plates(
