@@ -606,3 +606,31 @@ def test_a_stiffener_without_a_seat_names_the_leaning_rib_not_the_panel_size():
     message = _unseated(payload, level, 1, err)
     assert message.startswith("not built: rib 0 stands 46 degrees off square to the sheet")
     assert "too small" not in message
+
+
+def test_a_build_up_hanging_below_the_design_is_said():
+    """Sheets rising at 40 degrees from the ground with the design on the top sheet: the bottom
+    sheet's lower face lies the build-up's depth down their normals, depth x cos 40 below the
+    ground, which the foundations must be set for; with the design on the bottom sheet nothing
+    hangs below, and a vertical springing (the demo's vault) hangs nothing either."""
+    from types import SimpleNamespace
+
+    from fabpanel.buildup import Buildup
+    from fabpanel.model.build import _hanging_below
+
+    rise = np.radians(40.0)
+    u, v = np.meshgrid(np.linspace(0, 1000.0, 5), np.linspace(0, 1000.0, 5), indexing="ij")
+    samples = np.stack([u, v * np.cos(rise), v * np.sin(rise)], -1)[None]
+    normals = np.broadcast_to([0.0, -np.sin(rise), np.cos(rise)], samples.shape)
+    developed = SimpleNamespace(samples=samples, normals=normals)
+    job = Job.from_dict({})
+    issues, below = _hanging_below(developed, Buildup.of(job))
+    assert below == pytest.approx(Buildup.of(job).total_depth * np.cos(rise))
+    assert [i.code for i in issues] == ["below-design"] and issues[0].severity == "warning"
+    assert f"{below:.0f} mm below" in issues[0].message
+    above = Job.from_dict({"sandwich": {"design_face": "bottom-outer"}})
+    assert _hanging_below(developed, Buildup.of(above)) == ([], 0.0)
+    wall = SimpleNamespace(
+        samples=samples, normals=np.broadcast_to([0.0, -1.0, 0.0], samples.shape)
+    )
+    assert _hanging_below(wall, Buildup.of(job))[0] == []

@@ -155,6 +155,9 @@ def build(
         )
         for r in failed
     ] + issues
+    hanging, below = _hanging_below(developed, buildup)
+    metrics["below_design_mm"] = round(below, 1)
+    issues += hanging
     log.info(
         "built %d parts of %d panels in %.1f s%s",
         len(parts),
@@ -163,6 +166,36 @@ def build(
         f" ({len(failed)} panels not built)" if failed else "",
     )
     return Model(parts=tuple(parts), developed=developed, metrics=metrics, issues=tuple(issues))
+
+
+#: mm: a build-up reaching further than this below the design's lowest point is said (the
+#: foundations or the floor must take it)
+BELOW_DESIGN = 10.0
+
+
+def _hanging_below(developed: DevelopedPanels, buildup: Buildup) -> tuple[list[Issue], float]:
+    """How far the build-up reaches below the design surface's lowest point, mm, and a warning
+    where that is more than ``BELOW_DESIGN``: with the design on the top sheet, a vault whose
+    sheets rise at 40 degrees from the ground has its bottom sheet 121 mm below the springing
+    and its base ribs' anchor line half that, which the foundations must be set for."""
+    samples, normals = developed.samples, developed.normals
+    lowest = float(samples[..., 2].min())
+    offsets = buildup.offset_map.values()
+    reach = min(float((samples + o * normals)[..., 2].min()) for o in (min(offsets), max(offsets)))
+    below = max(0.0, lowest - reach)
+    if below <= BELOW_DESIGN:
+        return [], below
+    return [
+        Issue(
+            "below-design",
+            f"the build-up reaches {below:.0f} mm below the design surface's lowest point "
+            f"(design_face = {buildup.design_face!r}: the sheets and ribs are that far off the "
+            "design along its normals): set the supports and foundations that much lower, or "
+            'put the design on the bottom sheet ([sandwich] design_face = "bottom-outer")',
+            "",
+            "warning",
+        )
+    ], below
 
 
 def _run_payloads(
