@@ -92,6 +92,27 @@ def load(job: Job):
     return load_surface(job.input_path, job.input.units, crease_angle=job.input.crease_angle)
 
 
+def _units_not_applied(job: Job, surface: Surface) -> list[Issue]:
+    """A warning where the job declares a length unit for a B-rep that declares another: the
+    file's own unit is used for the surface (a roof in mm under ``units = "m"`` ran silently in
+    mm), the job's for the points and layouts the job gives."""
+    units = job.input.units
+    if units is None or surface.format not in ("step", "iges", "brep") or units == surface.units:
+        return []
+    return [
+        Issue(
+            "input-units-not-applied",
+            f"{surface.source.name} is read in the unit its {surface.format.upper()} file "
+            f'declares ({surface.units}), not in [input] units = "{units}", which applies only '
+            "to what the job gives as coordinates (singular and support points, a drawn "
+            "layout): if the file's numbers are in "
+            f"{units}, export it again with {units} as its unit",
+            "",
+            "warning",
+        )
+    ]
+
+
 def run(
     job: Job,
     out_dir: str | Path | None = None,
@@ -201,7 +222,7 @@ def _run_stages(
 
     stop = STAGES.index(until)
     timings: dict[str, float] = {}
-    issues: list[Issue] = []
+    issues: list[Issue] = _units_not_applied(job, surface)
     query = SurfaceQuery(surface)
     state: dict = {"surface": surface}
 

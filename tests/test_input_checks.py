@@ -425,3 +425,26 @@ def test_format_point_uses_the_declared_unit():
     assert format_point([3204.0, 1049.0, 400.4], "cm") == "(320.4, 104.9, 40.0) cm"
     assert format_point([3204.0, 1049.0, 400.4], "mm") == "(3204, 1049, 400) mm"
     assert format_point([25.4, 0.0, 0.0], "inch") == "(25, 0, 0) mm"
+
+
+def test_a_job_unit_a_brep_does_not_take_is_a_warning(tmp_path):
+    """[input] units = "m" on a STEP in mm: the file's millimetres are read, and the run says
+    so instead of running silently; the same unit, or none, says nothing."""
+    import build123d as bd
+
+    from fabpanel.pipeline import _units_not_applied
+
+    path = write_step(tmp_path / "roof.step", bd.Face.make_rect(14_000.0, 11_000.0).wrapped)
+    surface = load_surface(path, "m")
+    assert surface.units == "mm" and surface.bounds[1, 0] - surface.bounds[0, 0] == pytest.approx(
+        14_000
+    )
+    job = Job.from_dict({"input": {"path": str(path), "units": "m"}})
+    (issue,) = _units_not_applied(job, surface)
+    assert issue.code == "input-units-not-applied" and issue.severity == "warning"
+    assert issue.message.startswith(
+        'roof.step is read in the unit its STEP file declares (mm), not in [input] units = "m"'
+    )
+    assert "singular and support points, a drawn layout" in issue.message
+    assert not _units_not_applied(job.replace(input={"units": "mm"}), surface)
+    assert not _units_not_applied(Job.from_dict({"input": {"path": str(path)}}), surface)
