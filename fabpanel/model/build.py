@@ -174,7 +174,8 @@ BELOW_DESIGN = 10.0
 
 
 def _hanging_below(developed: DevelopedPanels, buildup: Buildup) -> tuple[list[Issue], float]:
-    """How far the build-up reaches below the design surface's lowest point, mm, and a warning
+    """How far the build-up reaches below the design surface's lowest point, mm, and a note
+    (info: a fact for the foundations, not a defect; most shells standing on their rim have it)
     where that is more than ``BELOW_DESIGN``: with the design on the top sheet, a vault whose
     sheets rise at 40 degrees from the ground has its bottom sheet 121 mm below the springing
     and its base ribs' anchor line half that, which the foundations must be set for."""
@@ -193,7 +194,7 @@ def _hanging_below(developed: DevelopedPanels, buildup: Buildup) -> tuple[list[I
             "design along its normals): set the supports and foundations that much lower, or "
             'put the design on the bottom sheet ([sandwich] design_face = "bottom-outer")',
             "",
-            "warning",
+            "info",
         )
     ], below
 
