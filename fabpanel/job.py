@@ -14,6 +14,7 @@ for M12); the others are fabpanel's own, each explained where it is defined.
 
 from __future__ import annotations
 
+import difflib
 import math
 import tomllib
 from pathlib import Path
@@ -1211,9 +1212,12 @@ def _describe(err: ValidationError, data: Any = None) -> str:
         for part in names[:-1]:
             field = getattr(model, "model_fields", {}).get(part)
             model = field.annotation if field is not None else model
-        allowed = ", ".join(getattr(model, "model_fields", {})) or "none"
+        fields = list(getattr(model, "model_fields", {}))
+        allowed = ", ".join(fields) or "none"
         what = "section" if len(names) == 1 else "key"
-        return f"unknown {what} {key}; allowed here: {allowed}"
+        close = difflib.get_close_matches(names[-1], fields, n=1, cutoff=0.75)
+        meant = f" (did you mean {close[0]}?)" if close else ""
+        return f"unknown {what} {key}{meant}; allowed here: {allowed}"
     if kind == "value_error":
         error = first.get("ctx", {}).get("error")
         if isinstance(error, _RuleError):

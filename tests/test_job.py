@@ -59,7 +59,12 @@ def test_round_trip_through_to_dict():
 @pytest.mark.parametrize(
     "data, fragment",
     [
-        ({"sandwich": {"rib_heigth": "3 mm"}}, "unknown key [sandwich] rib_heigth; allowed here:"),
+        (
+            {"sandwich": {"rib_heigth": "3 mm"}},
+            "unknown key [sandwich] rib_heigth (did you mean rib_height?); allowed here:",
+        ),
+        ({"sandwich": {"zzz": "3 mm"}}, "unknown key [sandwich] zzz; allowed here:"),
+        ({"panelise": {}}, "unknown section [panelise] (did you mean panelize?)"),
         ({"loads2": {}}, "unknown section [loads2]"),
         ({"sandwich": {"sheet_thickness": 3}}, "has no unit"),
         ({"sandwich": {"sheet_thickness": "3 ft"}}, 'unit "ft" in "3 ft" is not a length unit'),
