@@ -164,15 +164,7 @@ def _refuse_absurd_extent(shape, path: Path, declared: str) -> None:
     meshed: a roof drawn in mm and exported as metres is 14 km across, and meshing it to
     the surface tolerance (1 mm at most) took 24 GB before the kernel killed the run, with no
     word. B-rep files carry their units, so the fix is in the export."""
-    from OCP.Bnd import Bnd_Box
-    from OCP.BRepBndLib import BRepBndLib
-
-    box = Bnd_Box()
-    BRepBndLib.Add_s(shape, box, False)
-    if box.IsVoid():
-        return
-    low, high = box.CornerMin(), box.CornerMax()
-    size = np.array([high.X() - low.X(), high.Y() - low.Y(), high.Z() - low.Z()])  # mm
+    size = bbox_size(shape)
     if size.max() <= MAX_EXTENT_M * 1000:
         return
     scale = UNITS["length"].get(declared, 1.0)  # mm per declared unit
@@ -319,17 +311,23 @@ def shape_faces(shape) -> list:
     return [TopoDS.Face(faces.FindKey(i)) for i in range(1, faces.Extent() + 1)]
 
 
-def bbox_diagonal(shape) -> float:
-    """Diagonal of the shape's bounding box, mm."""
+def bbox_size(shape) -> np.ndarray:
+    """(3,) float: the sides of the shape's bounding box along x, y and z, mm (zeros for an
+    empty shape)."""
     from OCP.Bnd import Bnd_Box
     from OCP.BRepBndLib import BRepBndLib
 
     box = Bnd_Box()
     BRepBndLib.Add_s(shape, box, False)
     if box.IsVoid():
-        return 0.0
-    corner_min, corner_max = box.CornerMin(), box.CornerMax()
-    return float(corner_min.Distance(corner_max))
+        return np.zeros(3)
+    low, high = box.CornerMin(), box.CornerMax()
+    return np.array([high.X() - low.X(), high.Y() - low.Y(), high.Z() - low.Z()])
+
+
+def bbox_diagonal(shape) -> float:
+    """Diagonal of the shape's bounding box, mm."""
+    return float(np.linalg.norm(bbox_size(shape)))
 
 
 def linear_deflection(shape) -> float:
