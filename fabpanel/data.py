@@ -59,6 +59,10 @@ class Surface:
         and ``brep`` are local (``world = local + origin``): :func:`~fabpanel.load_surface`
         recentres every surface (:mod:`fabpanel.surface.frame`), and the writers of model files
         add the origin back.
+    folds : tuple of (k,) int
+        vertex chains (in order) of the seams between B-rep faces where the surface kinks by
+        more than :data:`fabpanel.surface.folds.FOLD_DEG`: the field layout puts panel sides
+        along them. Empty for meshes.
     """
 
     vertices: np.ndarray
@@ -69,6 +73,7 @@ class Surface:
     units: str
     brep: bytes | None = None
     origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    folds: tuple[np.ndarray, ...] = ()
 
     @property
     def area(self) -> float:

@@ -35,6 +35,7 @@ from ..surface import SurfaceQuery
 from ..surface.design_boundary import DesignBoundary
 from ..units import length_scale
 from .estimate import check_panel_count
+from .folds import on_folds
 from .gates import (
     failed_gates,
     gate_issues,
@@ -261,7 +262,8 @@ def _worth_polishing(layout: PanelLayout, measures: dict, job: Job) -> bool:
 
 def _polished(layout: PanelLayout, job: Job, query: SurfaceQuery) -> PanelLayout:
     """The layout's vertices nudged into the gates' bands (:mod:`.polish`), with the report in
-    ``metrics["polish"]``; singular points stay on their vertex."""
+    ``metrics["polish"]``; singular points stay on their vertex, vertices on a fold line on
+    the fold."""
     from .polish import PolishLimits, polish_layout
 
     vertices, report = polish_layout(
@@ -270,7 +272,7 @@ def _polished(layout: PanelLayout, job: Job, query: SurfaceQuery) -> PanelLayout
         query,
         DesignBoundary(query.surface),
         PolishLimits.of(job),
-        _singular_vertices(layout, job, query),
+        _singular_vertices(layout, job, query) | on_folds(layout.vertices, query.surface),
     )
     return replace(layout, vertices=vertices, metrics={**layout.metrics, "polish": report})
 

@@ -9,7 +9,8 @@
    subdivision into quads, the irregular vertices moved and merged by local remeshing. The
    boundary loops are splines through the flattened design boundary, split at its corners
    (turning more than ``[panelize] corner_angle``); ``singular_points`` are embedded as mesh
-   vertices. It runs in a child process (:mod:`.gmsh_quads`), which also calibrates the size
+   vertices; the domain is split along the surface's fold lines (:mod:`fabpanel.surface.folds`),
+   so panel sides run along them, and the nodes there stay on the fold. It runs in a child process (:mod:`.gmsh_quads`), which also calibrates the size
    (layout.md §2.3); on a domain without openings whose layout fails a gate, a second mesh
    without QQS's pattern-based faces is made as well and the better layout kept
    (``TOPOLOGIES``);
@@ -168,6 +169,8 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
             target=settings.panel_size,
             punches=punches,
             longest_edge=min(Buildup.of(job).usable_plate),
+            folds=tuple(flat[chain] for chain in surface.folds),
+            folds3d=tuple(surface.vertices[chain] for chain in surface.folds),
         )
         try:
             # strips split or collapsed where it fails the gates on edge lengths

@@ -56,6 +56,7 @@ def gmsh_quads(
         )
     loops = list(outline.loops)
     starts = np.cumsum([0, *[len(loop) for loop in loops[:-1]]])
+    folds = [flat[chain] for chain in surface.folds]
     with tempfile.TemporaryDirectory(prefix="fabpanel-gmsh-") as folder:
         source, target = Path(folder) / "in.npz", Path(folder) / "out.npz"
         np.savez(
@@ -70,6 +71,8 @@ def gmsh_quads(
             h=float(size),
             area=surface.area,
             topology=topology,
+            folds=np.concatenate(folds) if folds else np.zeros((0, 2)),
+            fold_starts=np.cumsum([0, *[len(f) for f in folds[:-1]]]),
             **cross,
         )
         script = Path(__file__).with_name("gmsh_quads.py")

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..geom.polygon import closest_on_polylines
 from ..job import Job
 from ..surface import SurfaceQuery
 from ..surface.design_boundary import DesignBoundary
@@ -56,6 +57,10 @@ def polished(domain: Domain, job: Job, mesh: FlatQuads, vertices: np.ndarray) ->
     return polished
 
 
+#: a flat node this close to a fold line (x the panel size there) is on it
+FOLD_NODE_TOLERANCE = 0.005
+
+
 @dataclass(frozen=True)
 class Domain:
     """The flattened design surface and what placing quads on it needs, made once."""
@@ -73,6 +78,10 @@ class Domain:
     target: float  # the asked panel size, mm, which the gates measure against
     punches: tuple[np.ndarray, ...] = ()  # small openings punched out of the mesh (:mod:`.punch`)
     longest_edge: float = np.inf  # mm: the plate's usable width, which the band smoothing holds
+    #: the surface's fold lines (:mod:`fabpanel.surface.folds`), flat and on the surface: gmsh
+    #: puts nodes on them, which stay there (:func:`fixed_nodes`) and go onto the fold
+    folds: tuple[np.ndarray, ...] = ()
+    folds3d: tuple[np.ndarray, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -124,11 +133,28 @@ def _place(
 
 
 def _on_surface(domain: Domain, mesh: FlatQuads, nodes: np.ndarray) -> np.ndarray:
-    """Flat nodes mapped onto the surface, boundary nodes exactly onto the design boundary."""
+    """Flat nodes mapped onto the surface, boundary nodes exactly onto the design boundary,
+    nodes on a fold line onto the fold."""
     vertices = domain.flat_mesh.interpolate(nodes)
     vertices[mesh.on_curve] = domain.boundary.closest(vertices[mesh.on_curve])
     vertices[~mesh.on_curve], _, _ = domain.query.closest(vertices[~mesh.on_curve])
+    for flat, fold in zip(domain.folds, domain.folds3d, strict=True):
+        on = ~mesh.on_curve & _near_polyline(nodes, flat, fold_tolerance(domain))
+        vertices[on] = closest_on_polylines(vertices[on], fold, closed=False)
     return vertices
+
+
+def fold_tolerance(domain: Domain) -> float:
+    """Flat distance within which a node lies on a fold line: gmsh's nodes lie on the spline
+    through the fold's flat points, within a hair of their polyline."""
+    return FOLD_NODE_TOLERANCE * domain.target * float(np.median(domain.flat_scale))
+
+
+def _near_polyline(points: np.ndarray, polyline: np.ndarray, tolerance: float) -> np.ndarray:
+    if not len(points):
+        return np.zeros(0, dtype=bool)
+    foot = closest_on_polylines(points, polyline, closed=False)
+    return np.linalg.norm(points - foot, axis=1) < tolerance
 
 
 def placed_with_edits(
@@ -224,10 +250,13 @@ def _wide_false_corners(domain: Domain, mesh: FlatQuads, vertices: np.ndarray) -
 
 
 def fixed_nodes(domain: Domain, nodes: np.ndarray) -> np.ndarray:
-    """(n,) bool: the nodes nearest the singular points, which stay where they were asked."""
+    """(n,) bool: the nodes nearest the singular points, which stay where they were asked,
+    and the nodes on fold lines, which stay on them (where gmsh spaced them along the fold)."""
     fixed = np.zeros(len(nodes), dtype=bool)
     for point in domain.points:
         fixed[int(np.argmin(np.linalg.norm(nodes - point, axis=1)))] = True
+    for flat in domain.folds:
+        fixed |= _near_polyline(nodes, flat, fold_tolerance(domain))
     return fixed
 
 

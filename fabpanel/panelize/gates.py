@@ -33,6 +33,7 @@ from ..data import PanelLayout, Surface
 from ..errors import Issue
 from ..job import Job
 from ..surface.design_boundary import DesignBoundary
+from .folds import panels_across_folds
 from .quality import corner_angles, vertex_valences
 
 #: thresholds (fractions of the panel size, degrees, shares)
@@ -83,6 +84,7 @@ def gate_measures(layout: PanelLayout, surface: Surface, target: float) -> dict:
     sides = np.sort(np.stack([layout.quads, np.roll(layout.quads, -1, 1)], 2).reshape(-1, 2), 1)
     _, side_uses = np.unique(sides, axis=0, return_counts=True)
     expected = surface.area / target**2
+    across = panels_across_folds(layout, surface, target)
     return {
         "surface_area_m2": round(surface.area / 1e6, 3),
         "panels": len(layout.quads),
@@ -106,6 +108,8 @@ def gate_measures(layout: PanelLayout, surface: Surface, target: float) -> dict:
         "euler_characteristic": euler_characteristic(len(layout.vertices), layout.quads),
         "surface_euler_characteristic": euler_characteristic(len(surface.vertices), surface.faces),
         "manifold": bool(side_uses.max() <= 2) if len(side_uses) else True,
+        "fold_lines": len(surface.folds),
+        "panels_across_folds": [layout.panel_ids[i] for i in across],
         **_outline_tips(layout, surface, angles, target),
     }
 
@@ -185,6 +189,7 @@ def meets_every_gate(measures: dict, min_width: float, tips_apart: bool = False)
         and measures["narrowest_panel_mm"] >= min_width
         and measures["manifold"]
         and measures["euler_characteristic"] == measures["surface_euler_characteristic"]
+        and not measures.get("panels_across_folds")
     )
 
 
@@ -203,6 +208,7 @@ def layout_score(measures: dict, min_width: float) -> float:
     score -= 0.5 * (measures["shortest_edge_vs_panel_size"] < MIN_EDGE)
     score -= 0.5 * (measures["corners_outside_45_135"] > 0)
     score -= 1.0 * (measures["narrowest_panel_mm"] < min_width)
+    score -= 0.5 * bool(measures.get("panels_across_folds"))
     score -= 10.0 * (
         not measures["manifold"]
         or measures["euler_characteristic"] != measures["surface_euler_characteristic"]
@@ -271,7 +277,29 @@ def gate_issues(layout: PanelLayout, measures: dict, job: Job) -> tuple[Issue, .
         )
     issues += _edge_issues(layout, measures, target, fix)
     issues += _corner_issues(layout, corners, measures, fix)
+    issues += _fold_issues(layout, measures)
     return tuple(issues)
+
+
+def _fold_issues(layout: PanelLayout, measures: dict) -> list[Issue]:
+    across = measures.get("panels_across_folds") or []
+    if not across:
+        return []
+    more = f" and {len(across) - NAMED} more" if len(across) > NAMED else ""
+    fix = (
+        'use [panelize] method = "field", which puts panel sides along the folds'
+        if layout.method != "field"
+        else "try another panel_size, or draw the layout with sides along the folds"
+    )
+    return [
+        Issue(
+            "layout-crosses-fold",
+            f"{len(across)} panel(s) span a fold line of the surface (a seam between two "
+            f"faces that kinks): {', '.join(across[:NAMED])}{more}; a developable sheet "
+            f"cannot follow both sides of the kink; {fix}",
+            across[0],
+        )
+    ]
 
 
 def _count_fix(method: str) -> str:

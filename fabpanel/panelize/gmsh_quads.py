@@ -11,14 +11,15 @@ IN holds the setting of QQS's topology steps (``topology``, a value of
 design surface (``flat`` (n, 2), ``faces`` (m, 3), ``scale`` (n,): flat length per surface
 length), the boundary loops (``loops`` concatenated, ``loop_starts``), which
 loop vertices are corners (``corners`` bool, per concatenated entry), points to embed
-(``points`` (p, 2)), the target surface edge length ``h`` and the surface ``area``. The size
+(``points`` (p, 2)), the fold lines to mesh along (``folds`` (f, 2) concatenated,
+``fold_starts``; :mod:`fabpanel.surface.folds`), the target surface edge length ``h`` and the surface ``area``. The size
 field is ``h / k x scale`` in the flat domain; gmsh's edges come out at about ``0.46 x`` the
 field (layout.md §2.3), so ``k`` starts at 0.46 and is corrected from the measured median until
 the median surface edge is within 4 % of ``h``; then a few factors around it are meshed and the
 mesh with the best gate score is kept.
 
 OUT holds ``nodes`` (q, 2), ``quads`` (r, 4) 0-based, ``on_curve`` (q,) bool (nodes on the
-boundary curves), ``factor`` (the chosen k), ``median`` (the surface-equivalent median edge),
+boundary curves, not on the folds), ``factor`` (the chosen k), ``median`` (the surface-equivalent median edge),
 ``score`` and ``meshes`` (how many were made); and up to ``FINER_MESHES`` meshes with more
 quads (``finer_nodes``, ``finer_quads``, ``finer_on_curve`` concatenated, ``finer_node_counts``
 and ``finer_quad_counts`` per mesh, ``finer_factors``, ``finer_scores``), fewest quads
@@ -83,8 +84,10 @@ def _loop_curves(points: np.ndarray, corners: np.ndarray) -> list[int]:
     return curves
 
 
-def _domain(data) -> int:
-    """The flat domain as one OCC plane surface (outer loop first, openings as holes)."""
+def _domain(data) -> list[int]:
+    """The flat domain as OCC plane surfaces (outer loop first, openings as holes), split
+    along the fold lines (``folds`` concatenated, ``fold_starts``) so that the quads of the
+    faces on either side meet along them."""
     loops = np.split(data["loops"], data["loop_starts"][1:])
     corners = np.split(data["corners"], data["loop_starts"][1:])
     flat = data["flat"]
@@ -102,11 +105,57 @@ def _domain(data) -> int:
     # without healing, QQS left zero-length edges and inverted quads on trimmed faces
     # (layout.md §2.4); it is also what merges the spline ends into one vertex per corner
     gmsh.model.occ.healShapes()
+    # the folds split the healed face (healing after would sew the faces back into one)
+    folds = _fold_curves(data)
+    if folds:
+        surfaces = gmsh.model.occ.getEntities(2)
+        gmsh.model.occ.fragment(surfaces, [(1, tag) for tag in folds])
+        gmsh.model.occ.synchronize()
+        # the folds' guiding points, and their ends where the fragment made new ones, are
+        # free points now: each would be meshed as a lone node
+        free = [
+            (0, tag)
+            for _, tag in gmsh.model.getEntities(0)
+            if not len(gmsh.model.getAdjacencies(0, tag)[0])
+        ]
+        gmsh.model.occ.remove(free)
     gmsh.model.occ.synchronize()
-    faces = gmsh.model.getEntities(2)
-    if len(faces) != 1:
+    faces = [tag for _, tag in gmsh.model.getEntities(2)]
+    if not folds and len(faces) != 1:
         raise RuntimeError(f"the flat domain became {len(faces)} faces when healed")
-    return faces[0][1]
+    return faces
+
+
+def _fold_curves(data) -> list[int]:
+    """One spline per fold line through its flat points (its ends end the curve)."""
+    if "folds" not in data or not len(data["folds"]):
+        return []
+    curves = []
+    for points in np.split(data["folds"], data["fold_starts"][1:]):
+        tags = [gmsh.model.occ.addPoint(x, y, 0.0) for x, y in points]
+        _END_POINTS.update((tags[0], tags[-1]))
+        curves.append(
+            gmsh.model.occ.addSpline(tags) if len(tags) > 2 else gmsh.model.occ.addLine(*tags)
+        )
+    return curves
+
+
+def _boundary_curves() -> list[int]:
+    """The curves bounding one face only: the outline and the openings, not the folds."""
+    return [
+        tag
+        for _, tag in gmsh.model.getEntities(1)
+        if len(gmsh.model.getAdjacencies(1, tag)[0]) == 1
+    ]
+
+
+def _embed_points(points: np.ndarray, faces: list[int]) -> None:
+    """Each singular point embedded as a mesh node of the face that holds it."""
+    for x, y in points:
+        tag = gmsh.model.occ.addPoint(x, y, 0.0)
+        gmsh.model.occ.synchronize()
+        inside = [f for f in faces if gmsh.model.isInside(2, f, [x, y, 0.0])]
+        gmsh.model.mesh.embed(0, [tag], 2, inside[0] if inside else faces[0])
 
 
 def _polygon_area(points: np.ndarray) -> float:
@@ -165,9 +214,10 @@ def _mesh(data, factor: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if kind != 3:
             raise RuntimeError(f"gmsh left {len(element_nodes) // 3} non-quad elements")
         quads = index[np.asarray(element_nodes, dtype=np.int64).reshape(-1, 4)]
-    curve_tags, _, _ = gmsh.model.mesh.getNodes(1, -1, includeBoundary=True)
     on_curve = np.zeros(len(tags), dtype=bool)
-    on_curve[index[curve_tags]] = True
+    for curve in _boundary_curves():
+        curve_tags, _, _ = gmsh.model.mesh.getNodes(1, curve, includeBoundary=True)
+        on_curve[index[curve_tags]] = True
     return coords.reshape(-1, 3)[:, :2], quads, on_curve
 
 
@@ -284,12 +334,8 @@ def main(source: str, target: str) -> None:
         }
         for name, value in options.items():
             gmsh.option.setNumber(name, value)
-        surface = _domain(data)
-        points = data["points"].reshape(-1, 2)
-        if len(points):
-            tags = [gmsh.model.occ.addPoint(x, y, 0.0) for x, y in points]
-            gmsh.model.occ.synchronize()
-            gmsh.model.mesh.embed(0, tags, 2, surface)
+        faces = _domain(data)
+        _embed_points(data["points"].reshape(-1, 2), faces)
         started = time.perf_counter()
         topology = int(data["topology"])
         meshed: dict = {}

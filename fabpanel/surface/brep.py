@@ -29,6 +29,7 @@ from ..errors import InputError, KernelError
 from ..units import UNITS, plausible_length_unit
 from .boundary import boundary_loops, orient_consistently
 from .checks import CREASE_ANGLE, check_surface
+from .folds import fold_lines
 from .mesh import outer_orientation
 
 log = logging.getLogger(__name__)
@@ -117,7 +118,7 @@ def read_brep(path: Path, units: str | None = None, crease_angle: float = CREASE
         )
     _refuse_absurd_extent(shape, path, declared)
     try:
-        vertices, triangles, _ = tessellate(shape)
+        vertices, triangles, face_ids = tessellate(shape)
     except KernelError as err:
         raise InputError(
             f"{path.name}: {err}; repair the surface in the modeller (or export a mesh)"
@@ -128,13 +129,16 @@ def read_brep(path: Path, units: str | None = None, crease_angle: float = CREASE
         vertices, triangles, name=path.name, units=declared, crease_angle=crease_angle, brep=True
     )
     loops = boundary_loops(triangles, vertices, where=path.name)
+    folds = fold_lines(vertices, triangles, face_ids)
     log.info(
-        "read %s: %d faces, tessellated to %d vertices, %d triangles, %d boundary loops",
+        "read %s: %d faces, tessellated to %d vertices, %d triangles, %d boundary loops, "
+        "%d fold lines",
         path.name,
         len(faces),
         len(vertices),
         len(triangles),
         len(loops),
+        len(folds),
     )
     return Surface(
         vertices=vertices,
@@ -144,6 +148,7 @@ def read_brep(path: Path, units: str | None = None, crease_angle: float = CREASE
         format=fmt,
         units=declared,
         brep=shape_to_brep(shape),
+        folds=folds,
     )
 
 
