@@ -13,6 +13,7 @@ from test_surface import write_step
 
 import fabpanel as fp
 from fabpanel.panelize.folds import on_folds, panels_across_folds
+from fabpanel.surface import describe_surface
 from fabpanel.surface.folds import FOLD_DEG, fold_lines
 
 #: the fold: x = FOLD_X mm, the slope along x rising by tan(FOLD_SLOPE_DEG) past it
@@ -93,6 +94,10 @@ def test_a_kinked_seam_is_a_fold_and_a_smooth_one_is_not(folded_roof):
     assert np.ptp(world[:, 1]) == pytest.approx(6000.0, abs=0.01)  # boundary to boundary
     rim = np.concatenate(surface.boundary_loops)
     assert {int(chain[0]), int(chain[-1])} <= set(rim.tolist())
+    (line,) = describe_surface(surface)["fold_lines"]
+    assert line["largest_fold_deg"] == pytest.approx(FOLD_SLOPE_DEG, abs=1.0)
+    # along the crown's parabola, 6 m across: a little longer than the chord
+    assert 6000.0 < line["length_mm"] < 6100.0
 
 
 def test_fold_lines_need_a_kink_along_the_seam():

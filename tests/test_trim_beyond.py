@@ -138,3 +138,23 @@ def test_a_corner_the_curved_continuation_cannot_reach_is_trimmed_on_the_tangent
         assert np.abs(curve @ planes[side, :3] - planes[side, 3]).max() < 1e-3
     assert np.abs(occ.sample_surface(face.surface, 17, 17)[..., 2]).max() < 1e-6
     assert face.slide[1] == pytest.approx(8.0, abs=0.5)
+
+
+def test_the_fit_is_measured_on_the_samples_a_face_cut_far_back_still_holds():
+    """A rib plane 150 mm inside the face's edge across the cylinder's curvature: the trim
+    slides that edge 150 mm round the arc. The samples the face still holds lie on it (the
+    fit measured by projection); comparing each sample with the refit's point of the same
+    index read the sagitta of that slide, about 150² / 2R = 2.9 mm. Moved 1 mm off the
+    face, the samples are found 1 mm off."""
+    from fabpanel.model.trim import _samples_fit
+
+    grid, normals = _cylinder_face(0.0)
+    planes = _bevelled_planes(0.0)
+    planes[0, 3] += 150.0  # side 0's plane moved 150 mm into the panel
+    face = trimmed_face(grid, normals[K // 2, K // 2], planes, np.ones(4, bool), 200.0, "BOT")
+    assert not face.untrimmed.any()
+    assert face.slide[0] == pytest.approx(150.0, abs=5.0)
+    assert face.fit_error < 0.01
+    # one row of samples and more lie beyond the new edge and are not counted; the rest are
+    outward = grid + 1.0 * normals
+    assert _samples_fit(face.surface, outward) == pytest.approx(1.0, abs=0.02)

@@ -148,20 +148,7 @@ def _trimmed_face(
     points, _, _ = continued(source, params.reshape(-1, 2), order)
     new_grid = points.reshape(n, n, 3)
     surface = occ.fitted_surface(new_grid, name)
-    # fit error: the developed samples against the new surface, measured across the source
-    # surface (trimming moves the boundary samples along it, by ``slide``). Between the samples
-    # the two interpolants of a noisy grid (one from a faceted mesh) differ by up to 0.1 mm,
-    # which is no closer to the developed panel than either: the samples are what it is.
-    at_samples = new_grid[::REFIT_DENSITY, ::REFIT_DENSITY].reshape(-1, 3)
-    uniform = np.stack(
-        np.meshgrid(np.linspace(0, 1, k), np.linspace(0, 1, k), indexing="ij"), axis=-1
-    ).reshape(-1, 2)
-    _, du, dv = occ.surface_derivatives(source, uniform)
-    across_normal = np.cross(du, dv)
-    across_normal /= np.linalg.norm(across_normal, axis=1, keepdims=True)
-    fit = float(
-        np.abs(np.einsum("nd,nd->n", at_samples - grid.reshape(-1, 3), across_normal)).max()
-    )
+    fit = _samples_fit(surface, grid)
     slide = np.array(
         [
             np.linalg.norm(
@@ -174,6 +161,33 @@ def _trimmed_face(
     _, du, dv = occ.surface_derivatives(surface, np.array([[0.5, 0.5]]))
     orient = 1.0 if float(np.cross(du[0], dv[0]) @ normal) >= 0 else -1.0
     return TrimmedFace(surface, orient, fit, slide, np.zeros(4, bool))
+
+
+def _samples_fit(surface, grid: np.ndarray) -> float:
+    """The largest distance of the developed samples ``grid (k, k, 3)`` from the new surface,
+    over the samples the trimmed face still holds (those whose closest point lies inside it:
+    a trim that cuts the face back leaves the samples beyond out).
+
+    It used to compare each sample with the new grid's point of the same index, across the
+    source surface. Where a trim slides the edge far along a curved face (a bottom sheet
+    hanging 145 mm beyond its samples to a square rib), that point has moved along the
+    surface and reads as off it by the sagitta of the move: 0.7-1.0 mm on a new user's vault,
+    where the samples lie within 0.0005 mm of the sheet."""
+    from OCP.GeomAPI import GeomAPI_ProjectPointOnSurf
+    from OCP.gp import gp_Pnt
+
+    u0, u1, v0, v1 = surface.Bounds()
+    margin = 1e-9
+    projector = GeomAPI_ProjectPointOnSurf()
+    gaps = []
+    for point in np.asarray(grid, dtype=float).reshape(-1, 3):
+        projector.Init(gp_Pnt(*point), surface)
+        if projector.NbPoints() == 0:
+            continue
+        u, v = projector.LowerDistanceParameters()
+        if u0 + margin < u < u1 - margin and v0 + margin < v < v1 - margin:
+            gaps.append(projector.LowerDistance())
+    return float(max(gaps, default=0.0))
 
 
 def side_rows(grid: np.ndarray) -> list[np.ndarray]:

@@ -19,6 +19,7 @@ from ..errors import InputError
 from .boundary import boundary_loops, edge_use, loop_lengths
 from .brep import BREP_FORMATS, brep_to_shape, read_brep, shape_to_brep
 from .checks import CREASE_ANGLE
+from .folds import fold_summary
 from .frame import recentred
 from .mesh import MESH_FORMATS, read_mesh
 from .query import SurfaceQuery
@@ -78,7 +79,9 @@ def describe_surface(surface: Surface) -> dict:
 
     Keys: format, units (declared), vertices, faces, bounds_mm, size_mm, area_m2,
     boundary_loops, openings, closed, manifold (every edge used by at most two triangles),
-    watertight (every edge used by exactly two), exact_brep, loop_lengths_mm (outer first).
+    watertight (every edge used by exactly two), exact_brep, loop_lengths_mm (outer first),
+    fold_lines (per seam of a B-rep that kinks: length, largest fold, ends; the field layout
+    runs panel sides along them, see :mod:`.folds`).
     """
     _, counts, _ = edge_use(surface.faces)
     bounds = surface.bounds
@@ -100,4 +103,5 @@ def describe_surface(surface: Surface) -> dict:
         "watertight": bool(len(counts) > 0 and np.all(counts == 2)),
         "exact_brep": surface.brep is not None,
         "loop_lengths_mm": [round(x, 3) for x in loop_lengths(surface.vertices, loops)],
+        "fold_lines": fold_summary(surface.vertices, surface.faces, surface.folds, surface.origin),
     }

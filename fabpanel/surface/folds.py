@@ -47,6 +47,35 @@ def fold_lines(
     return tuple(found)
 
 
+def fold_summary(
+    vertices: np.ndarray, triangles: np.ndarray, folds: tuple[np.ndarray, ...], origin: np.ndarray
+) -> list[dict]:
+    """Per fold line: its length and largest fold (degrees) and its two ends in the design's
+    own frame (mm), JSON-ready, for ``fabpanel inspect``."""
+    if not folds:
+        return []
+    edges, left, right = _interior_edges(triangles)
+    normals = _unit_normals(vertices, triangles)
+    fold = np.degrees(
+        np.arccos(np.clip(np.einsum("ij,ij->i", normals[left], normals[right]), -1.0, 1.0))
+    )
+    index = {(int(a), int(b)): i for i, (a, b) in enumerate(edges.tolist())}
+    summary = []
+    for chain in folds:
+        pairs = np.sort(np.column_stack([chain[:-1], chain[1:]]), axis=1)
+        along = fold[[index[(int(a), int(b))] for a, b in pairs]]
+        points = vertices[chain]
+        summary.append(
+            {
+                "length_mm": round(float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()), 1),
+                "largest_fold_deg": round(float(_median_of_three(along).max()), 2),
+                "from_mm": np.round(points[0] + origin, 1).tolist(),
+                "to_mm": np.round(points[-1] + origin, 1).tolist(),
+            }
+        )
+    return summary
+
+
 def fold_ends(folds: tuple[np.ndarray, ...]) -> np.ndarray:
     """The vertex ids where fold lines end (on the boundary, or where three faces meet)."""
     if not folds:
