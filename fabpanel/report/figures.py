@@ -58,7 +58,8 @@ def panel_figure(developed) -> bytes:
 
 
 def layout_figure(layout, surface) -> bytes:
-    """PNG: the panel layout in plan and in 3D, singular vertices marked by valence."""
+    """PNG: the panel layout in plan and in 3D, singular vertices marked by valence, the
+    surface's fold lines dashed."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -76,6 +77,17 @@ def layout_figure(layout, surface) -> bytes:
     for loop in surface.boundary_loops:
         points = surface.vertices[np.append(loop, loop[0])] / 1000.0
         plan.plot(points[:, 0], points[:, 1], color="tab:blue", linewidth=1.2)
+    for index, chain in enumerate(getattr(surface, "folds", ())):
+        points = surface.vertices[chain] / 1000.0
+        plan.plot(
+            points[:, 0],
+            points[:, 1],
+            color="tab:green",
+            linewidth=1.6,
+            linestyle="--",
+            label="fold line" if index == 0 else None,
+            zorder=2,
+        )
     colours = {3: "tab:orange", 5: "tab:red", 6: "tab:purple"}
     for valence in sorted({s["valence"] for s in singular}):
         points = np.array([s["position_mm"] for s in singular if s["valence"] == valence]) / 1e3
@@ -87,7 +99,7 @@ def layout_figure(layout, surface) -> bytes:
             label=f"valence {valence}",
             zorder=3,
         )
-    if singular:
+    if singular or getattr(surface, "folds", ()):
         plan.legend(loc="best", fontsize=8)
     plan.set_aspect("equal")
     plan.set_xlabel("x [m]"), plan.set_ylabel("y [m]")
