@@ -34,6 +34,13 @@ def _fading(x: float, y: float) -> float:
     return crown + math.tan(math.radians(8.0)) * max(0.0, x - FOLD_X) * fade
 
 
+def _chamfered(x: float, y: float) -> float:
+    """mm: the vault with a 150 mm strip rising at 8° across it at x = FOLD_X (a chamfer
+    face: two folds 150 mm apart)."""
+    crown = 1200.0 - 0.05 * (y - 3000.0) ** 2 / 1000.0
+    return crown + math.tan(math.radians(8.0)) * min(max(0.0, x - FOLD_X), 150.0)
+
+
 def _face(x0: float, x1: float, y0: float = 0.0, y1: float = 6000.0, height=_height):
     from OCP.Approx import Approx_ParametrizationType
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
@@ -79,6 +86,17 @@ def fading_fold(tmp_path_factory) -> Path:
         sewing.Add(_face(*box, height=_fading))
     sewing.Perform()
     return write_step(tmp_path_factory.mktemp("fade") / "fading.step", sewing.SewedShape())
+
+
+@pytest.fixture(scope="module")
+def chamfered(tmp_path_factory) -> Path:
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Sewing
+
+    sewing = BRepBuilderAPI_Sewing(0.1)
+    for x0, x1 in ((0.0, FOLD_X), (FOLD_X, FOLD_X + 150.0), (FOLD_X + 150.0, 8000.0)):
+        sewing.Add(_face(x0, x1, height=_chamfered))
+    sewing.Perform()
+    return write_step(tmp_path_factory.mktemp("chamfer") / "chamfered.step", sewing.SewedShape())
 
 
 def _job(path: Path, method: str) -> fp.Job:
@@ -162,6 +180,18 @@ def test_a_fold_that_fades_out_inside_is_followed_as_far_as_it_runs(fading_fold)
     assert layout.metrics["gates"]["passed"], layout.metrics["gates"]["failed"]
     assert len(panels_across_folds(layout, surface, 1000.0)) == 0
     assert on_folds(layout.vertices, surface).sum() >= 3
+
+
+def test_folds_closer_than_a_panel_is_wide_are_smoothed_across(chamfered):
+    """Followed, the two folds of a 150 mm chamfer face make a row of 150 mm slivers (an
+    error); the layout across them is kept, and says it crosses them."""
+    surface = fp.load_surface(chamfered)
+    assert len(surface.folds) == 2
+    layout = fp.panelize(surface, _job(chamfered, "field"))
+    folds = layout.metrics["folds"]
+    assert not folds["followed"] and folds["scores"]["across"] > folds["scores"]["along"]
+    assert not [i for i in layout.issues if i.severity == "error"]
+    assert "layout-crosses-fold" in layout.metrics["gates"]["failed"]
 
 
 def test_panels_either_side_of_the_fold_develop(folded_roof):

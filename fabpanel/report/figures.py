@@ -77,7 +77,8 @@ def layout_figure(layout, surface) -> bytes:
     for loop in surface.boundary_loops:
         points = surface.vertices[np.append(loop, loop[0])] / 1000.0
         plan.plot(points[:, 0], points[:, 1], color="tab:blue", linewidth=1.2)
-    for index, chain in enumerate(getattr(surface, "folds", ())):
+    folds: tuple[np.ndarray, ...] = tuple(getattr(surface, "folds", ()))
+    for index, chain in enumerate(folds):
         points = surface.vertices[chain] / 1000.0
         plan.plot(
             points[:, 0],
@@ -99,7 +100,7 @@ def layout_figure(layout, surface) -> bytes:
             label=f"valence {valence}",
             zorder=3,
         )
-    if singular or getattr(surface, "folds", ()):
+    if singular or folds:
         plan.legend(loc="best", fontsize=8)
     plan.set_aspect("equal")
     plan.set_xlabel("x [m]"), plan.set_ylabel("y [m]")
