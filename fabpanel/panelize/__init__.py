@@ -361,9 +361,9 @@ def _field_layout(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayou
     min_width = min_panel_width(job)
     made: dict[str, PanelLayout] = {}
     scores: dict[str, float] = {}
-    for way, shape in (("along", surface), ("across", replace(surface, folds=()))):
+    for way in ("along", "across"):
         try:
-            layout = field_panelize(shape, job, query)
+            layout = field_panelize(surface, job, query, follow_folds=way == "along")
         except GeometryError:
             if way == "across" and not made:
                 raise

@@ -128,8 +128,11 @@ STRIP_ROUNDS = 3
 STRIP_TRIES = 2
 
 
-def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayout:
-    """Panel layout by the field method (see the module docstring)."""
+def field_panelize(
+    surface: Surface, job: Job, query: SurfaceQuery, follow_folds: bool = True
+) -> PanelLayout:
+    """Panel layout by the field method (see the module docstring); ``follow_folds`` False
+    meshes across the surface's fold lines as if they were not there."""
     settings = job.panelize
     name = surface.source.name
     if not surface.boundary_loops:
@@ -145,6 +148,7 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
     )
     points = _singular_points(surface, job, query, flat_mesh)
     boundary = DesignBoundary(surface)
+    followed = surface.folds if follow_folds else ()
     min_width = min_panel_width(job)
     best: _Candidate | None = None
     punched_made = False
@@ -169,8 +173,8 @@ def field_panelize(surface: Surface, job: Job, query: SurfaceQuery) -> PanelLayo
             target=settings.panel_size,
             punches=punches,
             longest_edge=min(Buildup.of(job).usable_plate),
-            folds=tuple(flat[chain] for chain in surface.folds),
-            folds3d=tuple(surface.vertices[chain] for chain in surface.folds),
+            folds=tuple(flat[chain] for chain in followed),
+            folds3d=tuple(surface.vertices[chain] for chain in followed),
         )
         try:
             # strips split or collapsed where it fails the gates on edge lengths
@@ -439,7 +443,15 @@ def _placed_mesh(
     on a hypar at 1.2 m), and a step finer often fits where the caller's plate round, 12 %
     smaller everywhere, would add a third more panels."""
     meshes = gmsh_quads(
-        surface, domain.flat_mesh.flat, domain.scale, mesher, domain.points, job, size, topology
+        surface,
+        domain.flat_mesh.flat,
+        domain.scale,
+        mesher,
+        domain.points,
+        job,
+        size,
+        topology,
+        domain.folds,
     )
     first = _placed(surface, domain, job, meshes[0])
     if surface.area / size**2 > FINER_UP_TO_PANELS:

@@ -42,9 +42,11 @@ def gmsh_quads(
     job: Job,
     size: float,
     topology: int,
+    folds: tuple[np.ndarray, ...] = (),
 ) -> list[Meshed]:
     """Run :mod:`.gmsh_quads` on the flat domain in a child process with QQS's ``topology``
-    steps; the mesh it chose, then the finer ones it returned beside it."""
+    steps, split along the flat ``folds`` (polylines); the mesh it chose, then the finer ones
+    it returned beside it."""
     from ..parallel import child_preexec
 
     cross: dict = {}
@@ -56,7 +58,6 @@ def gmsh_quads(
         )
     loops = list(outline.loops)
     starts = np.cumsum([0, *[len(loop) for loop in loops[:-1]]])
-    folds = [flat[chain] for chain in surface.folds]
     with tempfile.TemporaryDirectory(prefix="fabpanel-gmsh-") as folder:
         source, target = Path(folder) / "in.npz", Path(folder) / "out.npz"
         np.savez(

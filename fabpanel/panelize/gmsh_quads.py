@@ -12,14 +12,16 @@ design surface (``flat`` (n, 2), ``faces`` (m, 3), ``scale`` (n,): flat length p
 length), the boundary loops (``loops`` concatenated, ``loop_starts``), which
 loop vertices are corners (``corners`` bool, per concatenated entry), points to embed
 (``points`` (p, 2)), the fold lines to mesh along (``folds`` (f, 2) concatenated,
-``fold_starts``; :mod:`fabpanel.surface.folds`), the target surface edge length ``h`` and the surface ``area``. The size
+``fold_starts``; :mod:`fabpanel.surface.folds`), the target surface edge length ``h`` and
+the surface ``area``. The size
 field is ``h / k x scale`` in the flat domain; gmsh's edges come out at about ``0.46 x`` the
 field (layout.md §2.3), so ``k`` starts at 0.46 and is corrected from the measured median until
 the median surface edge is within 4 % of ``h``; then a few factors around it are meshed and the
 mesh with the best gate score is kept.
 
 OUT holds ``nodes`` (q, 2), ``quads`` (r, 4) 0-based, ``on_curve`` (q,) bool (nodes on the
-boundary curves, not on the folds), ``factor`` (the chosen k), ``median`` (the surface-equivalent median edge),
+boundary curves, not on the folds), ``factor`` (the chosen k), ``median`` (the
+surface-equivalent median edge),
 ``score`` and ``meshes`` (how many were made); and up to ``FINER_MESHES`` meshes with more
 quads (``finer_nodes``, ``finer_quads``, ``finer_on_curve`` concatenated, ``finer_node_counts``
 and ``finer_quad_counts`` per mesh, ``finer_factors``, ``finer_scores``), fewest quads
