@@ -35,10 +35,7 @@ def fold_lines(
     seam = face_ids[left] != face_ids[right]
     if not seam.any():
         return ()
-    normals = _unit_normals(vertices, triangles)
-    fold = np.degrees(
-        np.arccos(np.clip(np.einsum("ij,ij->i", normals[left], normals[right]), -1.0, 1.0))
-    )
+    fold = _fold_angles(vertices, triangles, left, right)
     found = []
     for chain, along in _chains(edges[seam], fold[seam]):
         smoothed = _median_of_three(along)
@@ -55,10 +52,7 @@ def fold_summary(
     if not folds:
         return []
     edges, left, right = _interior_edges(triangles)
-    normals = _unit_normals(vertices, triangles)
-    fold = np.degrees(
-        np.arccos(np.clip(np.einsum("ij,ij->i", normals[left], normals[right]), -1.0, 1.0))
-    )
+    fold = _fold_angles(vertices, triangles, left, right)
     index = {(int(a), int(b)): i for i, (a, b) in enumerate(edges.tolist())}
     summary = []
     for chain in folds:
@@ -94,10 +88,15 @@ def _interior_edges(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     return edges[twin], owner[twin], owner[twin + 1]
 
 
-def _unit_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+def _fold_angles(
+    vertices: np.ndarray, triangles: np.ndarray, left: np.ndarray, right: np.ndarray
+) -> np.ndarray:
+    """Degrees between the normals of the triangles ``left`` and ``right`` of each edge."""
     corners = vertices[triangles]
     normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    return normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
+    cosine = np.einsum("ij,ij->i", normals[left], normals[right])
+    return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
 
 
 def _chains(edges: np.ndarray, values: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
